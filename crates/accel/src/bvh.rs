@@ -1,0 +1,280 @@
+//! A bounding volume hierarchy built with binned SAH, flattened into one array of 32-byte nodes.
+
+use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
+use raylume_intersect::Intersect;
+
+use crate::{Accelerator, PrimitiveHit};
+
+/// Number of SAH bins per axis.
+const BINS: usize = 12;
+/// Largest leaf the SAH may choose.
+const MAX_LEAF: usize = 8;
+/// Cost of visiting a node relative to one primitive test.
+const TRAVERSAL_COST: f32 = 0.5;
+/// Depth of the traversal stack (the build never goes deeper than this).
+const STACK: usize = 64;
+
+/// One node: its bounds and either the range of its primitives (leaf) or the index of its second
+/// child (inner node; the first child follows it directly).
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+struct Node {
+    min: [f32; 3],
+    /// Leaf: first primitive. Inner: index of the second child.
+    offset: u32,
+    max: [f32; 3],
+    /// Leaf: number of primitives (> 0). Inner: 0.
+    count: u16,
+    /// Inner: the split axis, used to visit the nearer child first.
+    axis: u16,
+}
+
+const _: () = assert!(std::mem::size_of::<Node>() == 32);
+
+impl Node {
+    #[inline]
+    fn aabb(&self) -> Aabb {
+        Aabb::new(Vec3A::from_array(self.min), Vec3A::from_array(self.max))
+    }
+}
+
+/// A BVH over primitives. Unbounded primitives (infinite planes) are kept outside the tree and
+/// tested directly by every ray.
+#[derive(Clone, Debug)]
+pub struct Bvh<P> {
+    /// Bounded primitives in leaf order.
+    prims: Vec<P>,
+    /// For each entry of `prims`, its index in the input.
+    ids: Vec<u32>,
+    /// Unbounded primitives and their input indices.
+    unbounded: Vec<(P, u32)>,
+    nodes: Vec<Node>,
+    bounds: Aabb,
+}
+
+struct BuildItem {
+    bounds: Aabb,
+    centroid: Vec3A,
+    index: u32,
+}
+
+impl<P: Intersect + Clone> Bvh<P> {
+    /// Builds the hierarchy over `prims`; moving primitives are bounded over all of `shutter`.
+    pub fn new(prims: Vec<P>, shutter: Interval) -> Self {
+        let mut items = Vec::with_capacity(prims.len());
+        let mut unbounded = Vec::new();
+        for (i, p) in prims.iter().enumerate() {
+            let b = p.bounds_over(shutter);
+            if b.is_finite() && !b.is_empty() {
+                items.push(BuildItem { bounds: b, centroid: b.centroid(), index: i as u32 });
+            } else if b.is_finite() {
+                // Empty bounds: nothing can be hit.
+            } else {
+                unbounded.push((p.clone(), i as u32));
+            }
+        }
+        let mut nodes = Vec::with_capacity((2 * items.len()).max(1));
+        if !items.is_empty() {
+            build(&mut items, &mut nodes, 0, 0);
+        }
+        let bounds = nodes.first().map_or(Aabb::EMPTY, Node::aabb);
+        let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
+        let prims_ordered = ids.iter().map(|&i| prims[i as usize].clone()).collect();
+        Self { prims: prims_ordered, ids, unbounded, nodes, bounds }
+    }
+
+    /// Number of nodes in the tree.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+}
+
+/// Depth past which splits are object medians, so the depth stays below [`STACK`] for any input.
+const MEDIAN_DEPTH: usize = 36;
+
+fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: usize) -> usize {
+    let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
+    let me = nodes.len();
+    nodes.push(Node {
+        min: bounds.min.to_array(),
+        offset: first as u32,
+        max: bounds.max.to_array(),
+        count: items.len() as u16,
+        axis: 0,
+    });
+    let n = items.len();
+    if n <= 1 {
+        return me;
+    }
+    let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
+    let axis = cb.longest_axis();
+    let extent = cb.diagonal()[axis];
+    let mid = if extent <= 0.0 {
+        // All centroids coincide: split by count if the leaf would be too large.
+        if n <= MAX_LEAF {
+            return me;
+        }
+        n / 2
+    } else {
+        let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, axis, extent) } else { None };
+        match sah {
+            Some(mid) => mid,
+            None if n <= MAX_LEAF => return me,
+            None => {
+                items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+                n / 2
+            }
+        }
+    };
+    let (left, right) = items.split_at_mut(mid);
+    build(left, nodes, first, depth + 1);
+    let second = build(right, nodes, first + mid, depth + 1);
+    let node = &mut nodes[me];
+    node.offset = second as u32;
+    node.count = 0;
+    node.axis = axis as u16;
+    me
+}
+
+/// Partitions `items` at the cheapest SAH bin boundary on `axis`; `None` if a leaf is cheaper.
+fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, axis: usize, extent: f32) -> Option<usize> {
+    let n = items.len();
+    let lo = cb.min[axis];
+    let scale = BINS as f32 / extent;
+    let bin_of = |c: Vec3A| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
+    let mut bin_bounds = [Aabb::EMPTY; BINS];
+    let mut bin_count = [0usize; BINS];
+    for it in items.iter() {
+        let b = bin_of(it.centroid);
+        bin_bounds[b] = bin_bounds[b].union(it.bounds);
+        bin_count[b] += 1;
+    }
+    // Sweep from the right to get the area and count right of each boundary.
+    let mut right_area = [0.0f32; BINS];
+    let mut right_count = [0usize; BINS];
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    for i in (1..BINS).rev() {
+        acc = acc.union(bin_bounds[i]);
+        cnt += bin_count[i];
+        right_area[i] = acc.surface_area();
+        right_count[i] = cnt;
+    }
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    let mut best = (f32::INFINITY, 0);
+    for i in 1..BINS {
+        acc = acc.union(bin_bounds[i - 1]);
+        cnt += bin_count[i - 1];
+        if cnt == 0 || right_count[i] == 0 {
+            continue;
+        }
+        let cost = acc.surface_area() * cnt as f32 + right_area[i] * right_count[i] as f32;
+        if cost < best.0 {
+            best = (cost, i);
+        }
+    }
+    if best.1 == 0 {
+        return None;
+    }
+    let split_cost = TRAVERSAL_COST + best.0 / bounds.surface_area().max(f32::MIN_POSITIVE);
+    if n <= MAX_LEAF && split_cost >= n as f32 {
+        return None;
+    }
+    // Partition in place: items in bins below the boundary first.
+    let mut mid = 0;
+    for i in 0..n {
+        if bin_of(items[i].centroid) < best.1 {
+            items.swap(i, mid);
+            mid += 1;
+        }
+    }
+    (mid > 0 && mid < n).then_some(mid)
+}
+
+impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
+    fn closest_hit(&self, ray: &Ray, mut t_range: Interval) -> Option<PrimitiveHit> {
+        let mut best = None;
+        for (p, id) in &self.unbounded {
+            if let Some(hit) = p.intersect(ray, t_range) {
+                t_range = t_range.with_max(hit.t);
+                best = Some(PrimitiveHit { hit, primitive: *id });
+            }
+        }
+        if self.nodes.is_empty() {
+            return best;
+        }
+        let inv = ray.dir.recip();
+        let neg = [ray.dir.x < 0.0, ray.dir.y < 0.0, ray.dir.z < 0.0];
+        let mut stack = [0u32; STACK];
+        let mut sp = 0;
+        let mut idx = 0usize;
+        loop {
+            let node = &self.nodes[idx];
+            if node.aabb().hit_range(ray, inv, t_range.min, t_range.max).is_some() {
+                if node.count > 0 {
+                    let start = node.offset as usize;
+                    for i in start..start + node.count as usize {
+                        if let Some(hit) = self.prims[i].intersect(ray, t_range) {
+                            t_range = t_range.with_max(hit.t);
+                            best = Some(PrimitiveHit { hit, primitive: self.ids[i] });
+                        }
+                    }
+                } else {
+                    // Visit the child on the ray's near side first.
+                    let (near, far) = if neg[node.axis as usize] {
+                        (node.offset as usize, idx + 1)
+                    } else {
+                        (idx + 1, node.offset as usize)
+                    };
+                    stack[sp] = far as u32;
+                    sp += 1;
+                    idx = near;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            idx = stack[sp] as usize;
+        }
+        best
+    }
+
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        if self.unbounded.iter().any(|(p, _)| p.occluded(ray, t_max)) {
+            return true;
+        }
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let inv = ray.dir.recip();
+        let mut stack = [0u32; STACK];
+        let mut sp = 0;
+        let mut idx = 0usize;
+        loop {
+            let node = &self.nodes[idx];
+            if node.aabb().hit_range(ray, inv, 0.0, t_max).is_some() {
+                if node.count > 0 {
+                    let start = node.offset as usize;
+                    if self.prims[start..start + node.count as usize].iter().any(|p| p.occluded(ray, t_max)) {
+                        return true;
+                    }
+                } else {
+                    stack[sp] = node.offset;
+                    sp += 1;
+                    idx += 1;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            idx = stack[sp] as usize;
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}

@@ -1,0 +1,133 @@
+use glam::Vec3A;
+
+use crate::Ray;
+
+/// An axis-aligned bounding box. The empty box has `min = +inf`, `max = -inf`.
+///
+/// ```
+/// use raylume_geometry::{Aabb, Vec3A};
+/// let b = Aabb::from_point(Vec3A::ZERO).union_point(Vec3A::ONE);
+/// assert_eq!(b.diagonal(), Vec3A::ONE);
+/// assert!(Aabb::EMPTY.is_empty());
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// The corner with the smallest coordinates.
+    pub min: Vec3A,
+    /// The corner with the largest coordinates.
+    pub max: Vec3A,
+}
+
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl Aabb {
+    /// The box that contains nothing; the identity of [`Aabb::union`].
+    pub const EMPTY: Aabb = Aabb { min: Vec3A::INFINITY, max: Vec3A::NEG_INFINITY };
+
+    /// The box with the given corners.
+    #[inline]
+    pub fn new(min: Vec3A, max: Vec3A) -> Self {
+        Self { min, max }
+    }
+
+    /// The degenerate box around one point.
+    #[inline]
+    pub fn from_point(p: Vec3A) -> Self {
+        Self { min: p, max: p }
+    }
+
+    /// The smallest box containing all `points`.
+    pub fn from_points(points: impl IntoIterator<Item = Vec3A>) -> Self {
+        points.into_iter().fold(Self::EMPTY, Self::union_point)
+    }
+
+    /// The smallest box containing both boxes.
+    #[inline]
+    pub fn union(self, other: Aabb) -> Self {
+        Self { min: self.min.min(other.min), max: self.max.max(other.max) }
+    }
+
+    /// The smallest box containing this box and `p`.
+    #[inline]
+    pub fn union_point(self, p: Vec3A) -> Self {
+        Self { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    /// Whether the box contains nothing.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    /// Whether every coordinate is finite (infinite planes have no finite bounds).
+    #[inline]
+    pub fn is_finite(&self) -> bool {
+        self.min.is_finite() && self.max.is_finite()
+    }
+
+    /// `max - min`.
+    #[inline]
+    pub fn diagonal(&self) -> Vec3A {
+        self.max - self.min
+    }
+
+    /// The centre of the box.
+    #[inline]
+    pub fn centroid(&self) -> Vec3A {
+        (self.min + self.max) * 0.5
+    }
+
+    /// The surface area, 0 for an empty box.
+    #[inline]
+    pub fn surface_area(&self) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let d = self.diagonal();
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    /// The index of the longest axis (0 = x, 1 = y, 2 = z).
+    #[inline]
+    pub fn longest_axis(&self) -> usize {
+        let d = self.diagonal();
+        if d.x >= d.y && d.x >= d.z {
+            0
+        } else if d.y >= d.z {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// Whether `p` lies inside or on the box.
+    #[inline]
+    pub fn contains(&self, p: Vec3A) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    /// The parameter range `[t0, t1]` in which the ray is inside the box, clipped to
+    /// `[t_min, t_max]`, or `None` if the ray misses it.
+    ///
+    /// `inv_dir` is `1 / ray.dir` (infinite for zero components). The slab test is ordered so that
+    /// `0 * inf` NaNs (a ray lying in a slab's plane) never make a hit disappear, and `t_max`
+    /// is widened by a few ULPs (pbrt's `gamma(3)` bound) so the test is conservative.
+    #[inline]
+    pub fn hit_range(&self, ray: &Ray, inv_dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
+        let t_lo = (self.min - ray.origin) * inv_dir;
+        let t_hi = (self.max - ray.origin) * inv_dir;
+        // min/max of glam map NaN to the other operand, so NaN slabs (0 * inf) are ignored.
+        let t_near = t_lo.min(t_hi);
+        let t_far = t_lo.max(t_hi);
+        let t0 = t_near.max_element().max(t_min);
+        let t1 = (t_far.min_element() * (1.0 + 2.0 * GAMMA3)).min(t_max);
+        (t0 <= t1).then_some((t0, t1))
+    }
+}
+
+/// pbrt's `gamma(3)`: the relative error bound of three floating-point operations.
+const GAMMA3: f32 = (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);

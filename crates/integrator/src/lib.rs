@@ -1,0 +1,90 @@
+//! Rendering for raylume: the [`World`] a render reads, the [`Whitted`] integrator behind the
+//! [`Integrator`] trait, the parallel [`render`] loop, the [`Film`] and its output to PNG, EXR and PFM.
+//!
+//! ```
+//! use raylume_accel::BruteForce;
+//! use raylume_camera::{Pinhole, View};
+//! use raylume_geometry::{Sphere, Vec3, Vec3A};
+//! use raylume_integrator::{render, Background, PointLight, RenderSettings, Whitted, World};
+//! use raylume_intersect::Primitive;
+//! use raylume_material::Phong;
+//!
+//! let prims = vec![Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 })];
+//! let world = World::new(
+//!     BruteForce::new(prims),
+//!     vec![Phong::default()],
+//!     vec![0],
+//!     vec![PointLight { position: Vec3A::new(0.0, 0.0, 10.0), color: Vec3::ONE }],
+//!     Background::color(Vec3::ZERO),
+//! );
+//! let view = View { from: Vec3A::new(0.0, 0.0, 5.0), at: Vec3A::ZERO, up: Vec3A::Y,
+//!     angle_deg: 45.0, hither: 0.0, width: 16, height: 16, aperture: 0.0, focal: 1.0 };
+//! let settings = RenderSettings::default();
+//! let (film, stats) = render(&world, &Pinhole::new(&view), &Whitted::new(&settings), &settings, &|| {});
+//! assert_eq!(stats.camera, 256);
+//! assert!(film.pixel(8, 8).x > 0.9); // the lit centre of the sphere
+//! assert_eq!(film.pixel(0, 0), Vec3::ZERO); // the background
+//! ```
+
+mod background;
+mod film;
+mod render;
+mod whitted;
+
+pub use background::{Background, Cubemap, CubemapFace};
+pub use film::{Film, OutputError};
+pub use render::{RayStats, RenderSettings, render};
+pub use whitted::Whitted;
+
+use raylume_accel::Accelerator;
+use raylume_geometry::{Ray, Vec3, Vec3A};
+use raylume_material::Material;
+
+/// A point light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    /// Position.
+    pub position: Vec3A,
+    /// Colour (and intensity).
+    pub color: Vec3,
+}
+
+/// Per-primitive shading data: which material, and optional vertex normals (p3f `pp` patches).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading {
+    /// Index into the world's materials.
+    pub material: u32,
+    /// Index into the world's vertex-normal table, or `u32::MAX` for none.
+    pub normals: u32,
+}
+
+/// Everything a render reads: the accelerator over the primitives, the materials, the lights and
+/// what rays that escape see.
+pub struct World<A, M> {
+    /// The primitives, behind an accelerator.
+    pub accel: A,
+    /// The materials.
+    pub materials: Vec<M>,
+    /// One entry per primitive (same indices as the accelerator's).
+    pub shading: Vec<Shading>,
+    /// Vertex normals of smooth triangles, referenced by [`Shading::normals`].
+    pub vertex_normals: Vec<[Vec3A; 3]>,
+    /// The point lights.
+    pub lights: Vec<PointLight>,
+    /// What escaping rays return.
+    pub background: Background,
+}
+
+impl<A: Accelerator, M: Material> World<A, M> {
+    /// A world whose primitive `i` uses material `materials[prim_material[i]]`.
+    pub fn new(accel: A, materials: Vec<M>, prim_material: Vec<u32>, lights: Vec<PointLight>, background: Background) -> Self {
+        let shading = prim_material.into_iter().map(|material| Shading { material, normals: u32::MAX }).collect();
+        Self { accel, materials, shading, vertex_normals: Vec::new(), lights, background }
+    }
+}
+
+/// Computes the light arriving along a camera ray.
+pub trait Integrator: Sync {
+    /// The colour seen along `ray` (a camera ray, whose hits are accepted from `t_min` on).
+    fn radiance<A: Accelerator, M: Material>(&self, world: &World<A, M>, ray: &Ray, t_min: f32, stats: &mut RayStats) -> Vec3;
+}

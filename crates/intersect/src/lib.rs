@@ -1,0 +1,64 @@
+//! Ray-primitive intersection for raylume: the [`Intersect`] trait, the [`Hit`] record, one routine per
+//! shape of `raylume-geometry`, and the closed [`Primitive`] enum that dispatches among them statically.
+//!
+//! ```
+//! use raylume_geometry::{Interval, Ray, Sphere, Vec3A};
+//! use raylume_intersect::Intersect;
+//! let sphere = Sphere { center: Vec3A::new(0.0, 0.0, 5.0), radius: 1.0 };
+//! let hit = sphere.intersect(&Ray::new(Vec3A::ZERO, Vec3A::Z), Interval::POSITIVE).unwrap();
+//! assert!((hit.t - 4.0).abs() < 1e-6);
+//! assert!(sphere.occluded(&Ray::new(Vec3A::ZERO, Vec3A::Z), 10.0));
+//! ```
+
+mod primitive;
+mod shapes;
+
+pub use primitive::Primitive;
+use raylume_geometry::{Aabb, Interval, Ray, Vec2, Vec3A};
+
+/// Where a ray meets a surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// The ray parameter of the hit.
+    pub t: f32,
+    /// The hit point.
+    pub point: Vec3A,
+    /// The unit geometric normal, pointing to the shape's outside (for triangles and planes: the side
+    /// their winding makes positive). It is not flipped towards the ray; see [`Hit::front_face`].
+    pub normal: Vec3A,
+    /// Surface coordinates: barycentrics `(b1, b2)` for triangles, unused (zero) elsewhere.
+    pub uv: Vec2,
+}
+
+impl Hit {
+    /// Whether the ray arrived on the side the normal points to.
+    #[inline]
+    pub fn front_face(&self, ray: &Ray) -> bool {
+        ray.dir.dot(self.normal) < 0.0
+    }
+}
+
+/// A shape a ray can hit.
+///
+/// Implementors give the closest hit in a parameter interval and its bounds; the default methods
+/// derive a shadow-ray query and the bounds over a shutter interval.
+pub trait Intersect {
+    /// The closest hit with `t` in `t_range`, if any.
+    fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit>;
+
+    /// Whether anything is hit with `t` in `(0, t_max)`: the query of shadow rays, which may stop
+    /// at any hit rather than the closest one.
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        self.intersect(ray, Interval::new(0.0, t_max)).is_some()
+    }
+
+    /// The bounds of the shape (infinite for unbounded shapes such as planes).
+    fn bounds(&self) -> Aabb;
+
+    /// The bounds of everything the shape covers during `shutter`; moving shapes override it.
+    #[inline]
+    fn bounds_over(&self, _shutter: Interval) -> Aabb {
+        self.bounds()
+    }
+}

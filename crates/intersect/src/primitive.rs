@@ -1,0 +1,61 @@
+use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle};
+
+use crate::{Hit, Intersect};
+
+/// Every shape raylume renders, as one closed enum so the per-ray path dispatches with a `match`
+/// (static dispatch, no boxing) rather than through a vtable.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Primitive {
+    /// A sphere.
+    Sphere(Sphere),
+    /// A moving sphere (motion blur).
+    MovingSphere(MovingSphere),
+    /// A triangle (polygons and meshes are made of them).
+    Triangle(Triangle),
+    /// An infinite plane (unbounded: accelerators keep it outside their structure).
+    Plane(Plane),
+    /// An axis-aligned box.
+    Box(AaBox),
+    /// A cone or cylinder without caps.
+    Cone(Cone),
+}
+
+macro_rules! dispatch {
+    ($self:expr, $s:ident => $e:expr) => {
+        match $self {
+            Primitive::Sphere($s) => $e,
+            Primitive::MovingSphere($s) => $e,
+            Primitive::Triangle($s) => $e,
+            Primitive::Plane($s) => $e,
+            Primitive::Box($s) => $e,
+            Primitive::Cone($s) => $e,
+        }
+    };
+}
+
+impl Intersect for Primitive {
+    #[inline]
+    fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
+        dispatch!(self, s => s.intersect(ray, t_range))
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        dispatch!(self, s => s.occluded(ray, t_max))
+    }
+
+    fn bounds(&self) -> Aabb {
+        dispatch!(self, s => Intersect::bounds(s))
+    }
+
+    fn bounds_over(&self, shutter: Interval) -> Aabb {
+        dispatch!(self, s => s.bounds_over(shutter))
+    }
+}
+
+impl Primitive {
+    /// Whether the primitive has finite bounds (planes do not).
+    pub fn is_bounded(&self) -> bool {
+        !matches!(self, Primitive::Plane(_))
+    }
+}
