@@ -1,1 +1,229 @@
-fn main(){}
+//! `raylume`: renders p3f scenes from the command line.
+//!
+//! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use raylume_accel::AccelKind;
+use raylume_integrator::RenderSettings;
+use raylume_material::FresnelMode;
+use raylume_scene::{DEFAULT_SCENE, RenderOptions, Scene, p3f};
+
+#[derive(Parser)]
+#[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a p3f scene (the embedded default scene without SCENE) to an image.
+    Render(RenderArgs),
+    /// Print the RMSE between two images of the same size (8-bit channels as values in [0, 1]).
+    Compare {
+        /// The first image.
+        a: PathBuf,
+        /// The second image.
+        b: PathBuf,
+    },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The p3f scene; without it, the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Output image: .png (8-bit), .exr or .pfm (linear float).
+    #[arg(short, long, default_value = "out.png")]
+    output: PathBuf,
+    /// Samples per pixel (1: the pixel centre; more: jittered n x n strata, n = ceil(sqrt(spp))).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Maximum ray depth, counting the camera ray as 1.
+    #[arg(long, default_value_t = 4)]
+    depth: u32,
+    /// Accelerator; by default the scene's `accel` hint, else bvh.
+    #[arg(long, value_enum)]
+    accel: Option<AccelArg>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of the random samples.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Image width (overrides the scene's; give --height too).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Image height (overrides the scene's; give --width too).
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Treat warnings (unknown tags) as errors.
+    #[arg(long)]
+    strict: bool,
+    /// A further folder to look for the scene's `env` cubemap in.
+    #[arg(long)]
+    env_dir: Vec<PathBuf>,
+    /// Ignore the scene's cubemap: escaping rays return the background colour.
+    #[arg(long)]
+    no_env: bool,
+    /// Use Schlick's approximation instead of the exact Fresnel equations.
+    #[arg(long)]
+    schlick: bool,
+    /// Scale of the specular highlight (1: the plain model).
+    #[arg(long, default_value_t = 1.0)]
+    specular_scale: f32,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum AccelArg {
+    None,
+    Bvh,
+    Grid,
+}
+
+/// An error and the exit code it gets.
+struct Failure {
+    code: u8,
+    message: String,
+}
+
+fn bad_input(message: impl ToString) -> Failure {
+    Failure { code: 2, message: message.to_string() }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render(args),
+        Command::Compare { a, b } => compare(&a, &b),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("raylume: error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn render(args: RenderArgs) -> Result<(), Failure> {
+    let options = p3f::LoadOptions { strict: args.strict };
+    let (scene, warnings, mut env_dirs) = match &args.scene {
+        Some(path) => {
+            let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
+            let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
+            let mut dirs = vec![dir.clone()];
+            dirs.push(dir.join(".."));
+            (scene, warnings, dirs)
+        }
+        None => {
+            let (scene, warnings) = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
+            (scene, warnings, vec![PathBuf::from(".")])
+        }
+    };
+    for w in &warnings {
+        eprintln!("{w}");
+    }
+    env_dirs.extend(args.env_dir.iter().cloned());
+    let spp = args.spp.or(scene.spp_hint).unwrap_or(1);
+    let settings = RenderSettings {
+        max_depth: args.depth,
+        spp,
+        seed: args.seed,
+        fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
+    };
+    let n = settings.strata();
+    if spp > 1 && n * n != spp {
+        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
+    }
+    if !args.specular_scale.is_finite() || args.specular_scale < 0.0 {
+        return Err(bad_input(format!("--specular-scale {}: expected a finite number >= 0", args.specular_scale)));
+    }
+    let accel = args.accel.map(|a| match a {
+        AccelArg::None => AccelKind::None,
+        AccelArg::Bvh => AccelKind::Bvh,
+        AccelArg::Grid => AccelKind::Grid,
+    });
+    let render_options = RenderOptions {
+        settings,
+        accel,
+        resolution: args.width.zip(args.height),
+        env_dirs,
+        use_env: !args.no_env,
+        specular_scale: args.specular_scale,
+    };
+    // Check the output's format before spending time on the render.
+    let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if !matches!(ext.as_str(), "png" | "exr" | "pfm") {
+        return Err(bad_input(format!("{}: unknown image format '{ext}' (expected .png, .exr or .pfm)", args.output.display())));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let (w, h) = render_options.resolution.unwrap_or((scene.view.width, scene.view.height));
+    let bar = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(h as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
+                .expect("valid template"),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
+    bar.finish_and_clear();
+    out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let s = out.stats;
+    let total = out.build_seconds + out.render_seconds;
+    eprintln!(
+        "raylume: wrote {} ({w}x{h}, {} spp, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
+        args.output.display(),
+        n * n,
+        out.accel,
+        pool.current_num_threads(),
+        total,
+        out.build_seconds,
+        out.render_seconds
+    );
+    eprintln!(
+        "raylume: {} rays (camera {}, shadow {}, reflection {}, refraction {}), {:.2} Mrays/s",
+        s.total(),
+        s.camera,
+        s.shadow,
+        s.reflection,
+        s.refraction,
+        s.total() as f64 / out.render_seconds.max(1e-9) / 1e6
+    );
+    Ok(())
+}
+
+fn scene_render(scene: &Scene, options: &RenderOptions, bar: &ProgressBar) -> Result<raylume_scene::RenderOutput, Failure> {
+    scene.render(options, &|| bar.inc(1)).map_err(bad_input)
+}
+
+fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
+    let load = |p: &Path| {
+        image::open(p).map(|i| i.into_rgb8()).map_err(|e| bad_input(format!("{}: {e}", p.display())))
+    };
+    let (ia, ib) = (load(a)?, load(b)?);
+    if ia.dimensions() != ib.dimensions() {
+        return Err(bad_input(format!(
+            "{} is {:?} but {} is {:?}: sizes differ",
+            a.display(),
+            ia.dimensions(),
+            b.display(),
+            ib.dimensions()
+        )));
+    }
+    let to_f = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>();
+    let rmse = raylume_integrator::metrics::rmse(&to_f(&ia), &to_f(&ib)).unwrap_or(0.0);
+    println!("rmse {rmse:.6} ({:.3} of 255)", rmse * 255.0);
+    Ok(())
+}

@@ -27,6 +27,7 @@
 //! ```
 
 mod background;
+pub mod metrics;
 mod film;
 mod render;
 mod whitted;

@@ -1,0 +1,143 @@
+use raylume_camera::View;
+use raylume_geometry::{Vec3, Vec3A};
+use raylume_material::Phong;
+
+use crate::{Light, Object, Scene, SceneError, Shape};
+
+/// Builds a [`Scene`] in code, entity by entity, as a p3f file would: each object takes the material
+/// set last.
+///
+/// ```
+/// use raylume_scene::SceneBuilder;
+/// use raylume_geometry::{Vec3, Vec3A};
+/// use raylume_material::Phong;
+/// let scene = SceneBuilder::new()
+///     .camera(Vec3A::new(0.0, 2.0, 6.0), Vec3A::ZERO, Vec3A::Y, 40.0, 64, 48)
+///     .background(Vec3::new(0.1, 0.2, 0.4))
+///     .light(Vec3A::new(4.0, 6.0, 4.0), Vec3::ONE)
+///     .material(Phong { diffuse: Vec3::new(0.8, 0.2, 0.2), kd: 0.9, ..Phong::default() })
+///     .sphere(Vec3A::ZERO, 1.0)
+///     .plane([Vec3A::new(0.0, -1.0, 0.0), Vec3A::new(0.0, -1.0, 1.0), Vec3A::new(1.0, -1.0, 0.0)])
+///     .build()
+///     .unwrap();
+/// assert_eq!(scene.objects.len(), 2);
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct SceneBuilder {
+    view: Option<View>,
+    background: Vec3,
+    env: Option<String>,
+    lights: Vec<Light>,
+    materials: Vec<Phong>,
+    objects: Vec<Object>,
+    accel_hint: Option<u32>,
+    spp_hint: Option<u32>,
+    error: Option<String>,
+}
+
+impl SceneBuilder {
+    /// An empty scene.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A pinhole camera at `from` looking at `at`, with a vertical field of view in degrees.
+    pub fn camera(self, from: Vec3A, at: Vec3A, up: Vec3A, angle_deg: f32, width: u32, height: u32) -> Self {
+        self.view(View { from, at, up, angle_deg, hither: 0.0, width, height, aperture: 0.0, focal: 1.0 })
+    }
+
+    /// The camera, with every field of the p3f `v` entity.
+    pub fn view(mut self, view: View) -> Self {
+        self.view = Some(view);
+        self
+    }
+
+    /// The background colour.
+    pub fn background(mut self, color: Vec3) -> Self {
+        self.background = color;
+        self
+    }
+
+    /// The environment cubemap folder's name.
+    pub fn env(mut self, name: impl Into<String>) -> Self {
+        self.env = Some(name.into());
+        self
+    }
+
+    /// A point light.
+    pub fn light(mut self, position: Vec3A, color: Vec3) -> Self {
+        self.lights.push(Light { position, color });
+        self
+    }
+
+    /// The material of the objects added after it.
+    pub fn material(mut self, material: Phong) -> Self {
+        self.materials.push(material);
+        self
+    }
+
+    /// Any shape, with the current material.
+    pub fn shape(mut self, shape: Shape) -> Self {
+        if self.materials.is_empty() {
+            self.error.get_or_insert_with(|| "an object was added before any material".to_owned());
+        }
+        let material = self.materials.len().saturating_sub(1) as u32;
+        self.objects.push(Object { material, shape });
+        self
+    }
+
+    /// A sphere.
+    pub fn sphere(self, center: Vec3A, radius: f32) -> Self {
+        self.shape(Shape::Sphere { center, radius })
+    }
+
+    /// An axis-aligned box.
+    pub fn aabox(self, min: Vec3A, max: Vec3A) -> Self {
+        self.shape(Shape::Box { min, max })
+    }
+
+    /// A triangle.
+    pub fn triangle(self, p0: Vec3A, p1: Vec3A, p2: Vec3A) -> Self {
+        self.shape(Shape::Polygon(vec![p0, p1, p2]))
+    }
+
+    /// An infinite plane through three points.
+    pub fn plane(self, points: [Vec3A; 3]) -> Self {
+        self.shape(Shape::Plane(points))
+    }
+
+    /// A triangle mesh with 0-based indices.
+    pub fn mesh(self, vertices: Vec<Vec3A>, triangles: Vec<[u32; 3]>) -> Self {
+        self.shape(Shape::Mesh { vertices, triangles })
+    }
+
+    /// The suggested accelerator (0 none, 1 grid, 2 BVH).
+    pub fn accel_hint(mut self, hint: u32) -> Self {
+        self.accel_hint = Some(hint);
+        self
+    }
+
+    /// The suggested samples per pixel.
+    pub fn spp_hint(mut self, spp: u32) -> Self {
+        self.spp_hint = Some(spp);
+        self
+    }
+
+    /// The scene, or an error if it has no camera or an object precedes every material.
+    pub fn build(self) -> Result<Scene, SceneError> {
+        if let Some(e) = self.error {
+            return Err(SceneError::Invalid(e));
+        }
+        let view = self.view.ok_or_else(|| SceneError::Invalid("the scene has no camera".to_owned()))?;
+        Ok(Scene {
+            view,
+            background: self.background,
+            env: self.env,
+            lights: self.lights,
+            materials: self.materials,
+            objects: self.objects,
+            accel_hint: self.accel_hint,
+            spp_hint: self.spp_hint,
+        })
+    }
+}
