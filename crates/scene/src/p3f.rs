@@ -7,7 +7,7 @@
 //! ```
 //! use raylume_scene::p3f::{parse, LoadOptions};
 //! let err = parse("v\nfrom 0 0 x", "bad.p3f", &LoadOptions::default()).unwrap_err();
-//! assert_eq!(err.to_string(), "bad.p3f:2:10: expected a number (from y), found 'x'");
+//! assert_eq!(err.to_string(), "bad.p3f:2:10: expected a number (from z), found 'x'");
 //! ```
 
 use std::path::Path;

@@ -1,0 +1,101 @@
+//! Fresnel against published values, Schlick within its known error, Snell's law.
+
+use approx::assert_relative_eq;
+use raylume_geometry::Vec3A;
+use raylume_material::{FresnelMode, fresnel_dielectric, reflect, refract, schlick};
+
+#[test]
+fn glass_reflects_four_percent_at_normal_incidence() {
+    assert_relative_eq!(fresnel_dielectric(1.0, 1.0 / 1.5), 0.04, max_relative = 1e-5);
+    // And from inside the glass, the same 4 %.
+    assert_relative_eq!(fresnel_dielectric(1.0, 1.5), 0.04, max_relative = 1e-5);
+    // Water (n = 1.333): ((n-1)/(n+1))^2 = 0.02037.
+    assert_relative_eq!(fresnel_dielectric(1.0, 1.0 / 1.333), 0.020_37, max_relative = 1e-3);
+}
+
+#[test]
+fn brewster_angle_gives_zero_p_reflectance() {
+    // At Brewster's angle Rp = 0, so the unpolarised reflectance is Rs / 2; for glass Rs = 0.1479.
+    let theta = 1.5f32.atan();
+    let r = fresnel_dielectric(theta.cos(), 1.0 / 1.5);
+    assert_relative_eq!(r, 0.147_93 / 2.0, max_relative = 2e-3);
+    // It is the minimum of Rp: slightly off Brewster the mean is larger than Rs/2 there would give.
+    let rs_only = |t: f32| {
+        let ct = (1.0 - (t.sin() / 1.5).powi(2)).sqrt();
+        ((t.cos() - 1.5 * ct) / (t.cos() + 1.5 * ct)).powi(2)
+    };
+    for d in [-0.1f32, 0.1] {
+        let t = theta + d;
+        assert!(fresnel_dielectric(t.cos(), 1.0 / 1.5) > rs_only(t) / 2.0);
+    }
+}
+
+#[test]
+fn total_internal_reflection_beyond_the_critical_angle() {
+    let critical = (1.0f32 / 1.5).asin();
+    let beyond = critical + 0.01;
+    assert_eq!(fresnel_dielectric(beyond.cos(), 1.5), 1.0);
+    assert_eq!(schlick(beyond.cos(), 1.5), 1.0);
+    let below = critical - 0.01;
+    assert!(fresnel_dielectric(below.cos(), 1.5) < 1.0);
+    let d = Vec3A::new(beyond.sin(), -beyond.cos(), 0.0);
+    assert_eq!(refract(d, Vec3A::Y, 1.5), None);
+    assert!(refract(Vec3A::new(below.sin(), -below.cos(), 0.0), Vec3A::Y, 1.5).is_some());
+}
+
+#[test]
+fn grazing_incidence_reflects_everything() {
+    assert_relative_eq!(fresnel_dielectric(0.0, 1.0 / 1.5), 1.0, max_relative = 1e-6);
+    assert_relative_eq!(schlick(0.0, 1.0 / 1.5), 1.0, max_relative = 1e-6);
+}
+
+/// The exact unpolarised reflectance from air into a medium of index `n`, in f64, written from the
+/// textbook equations independently of the library.
+fn fresnel_f64(cos_i: f64, n: f64) -> f64 {
+    let sin_t = (1.0 - cos_i * cos_i).max(0.0).sqrt() / n;
+    let cos_t = (1.0 - sin_t * sin_t).sqrt();
+    let rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)).powi(2);
+    let rp = ((n * cos_i - cos_t) / (n * cos_i + cos_t)).powi(2);
+    0.5 * (rs + rp)
+}
+
+#[test]
+fn exact_fresnel_matches_an_f64_reference_at_every_angle() {
+    for i in 0..=1000 {
+        let cos = i as f64 / 1000.0;
+        let got = fresnel_dielectric(cos as f32, 1.0 / 1.5) as f64;
+        assert!((got - fresnel_f64(cos, 1.5)).abs() < 1e-5, "cos {cos}: {got} vs {}", fresnel_f64(cos, 1.5));
+    }
+}
+
+#[test]
+fn schlick_stays_within_its_known_error() {
+    // For glass seen from air, Schlick's approximation is exact at normal and grazing incidence and
+    // its worst error is 0.0357 near 85 degrees (computed here in f64 from the exact equations).
+    let (mut worst, mut worst_cos) = (0.0f64, 0.0);
+    for i in 0..=10_000 {
+        let cos = i as f64 / 10_000.0;
+        let e = (fresnel_f64(cos, 1.5) - schlick(cos as f32, 1.0 / 1.5) as f64).abs();
+        if e > worst {
+            (worst, worst_cos) = (e, cos);
+        }
+    }
+    assert!((worst - 0.0357).abs() < 1e-3, "worst Schlick error {worst}");
+    assert!((worst_cos.acos().to_degrees() - 85.0).abs() < 1.0, "at {} degrees", worst_cos.acos().to_degrees());
+    assert!((schlick(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+    assert_eq!(FresnelMode::Schlick.reflectance(0.7, 0.8), schlick(0.7, 0.8));
+    assert_eq!(FresnelMode::Exact.reflectance(0.7, 0.8), fresnel_dielectric(0.7, 0.8));
+}
+
+#[test]
+fn snell_law_holds() {
+    let theta_i = 0.6f32;
+    let d = Vec3A::new(theta_i.sin(), -theta_i.cos(), 0.0);
+    let t = refract(d, Vec3A::Y, 1.0 / 1.5).unwrap();
+    assert_relative_eq!(t.length(), 1.0, max_relative = 1e-6);
+    // sin(theta_t) = sin(theta_i) / 1.5
+    assert_relative_eq!(t.x, theta_i.sin() / 1.5, max_relative = 1e-5);
+    assert!(t.y < 0.0);
+    let r = reflect(d, Vec3A::Y);
+    assert_relative_eq!(r.y, theta_i.cos(), max_relative = 1e-6);
+}
