@@ -32,7 +32,11 @@ impl CameraSample {
     /// A sample at a film position, the lens centre and the shutter's opening.
     #[inline]
     pub fn at_film(film: Vec2) -> Self {
-        Self { film, lens: Vec2::splat(0.5), time: 0.0 }
+        Self {
+            film,
+            lens: Vec2::splat(0.5),
+            time: 0.0,
+        }
     }
 }
 
@@ -97,7 +101,17 @@ impl Frame {
         let v = n.cross(u);
         let h = 2.0 * d * (view.angle_deg.to_radians() * 0.5).tan();
         let w = view.width as f32 / view.height as f32 * h;
-        Self { from: view.from, u, v, n, d, w, h, res: Vec2::new(view.width as f32, view.height as f32), hither: view.hither }
+        Self {
+            from: view.from,
+            u,
+            v,
+            n,
+            d,
+            w,
+            h,
+            res: Vec2::new(view.width as f32, view.height as f32),
+            hither: view.hither,
+        }
     }
 
     /// The unnormalised direction from the eye through a film position.
@@ -118,7 +132,10 @@ pub struct Pinhole {
 impl Pinhole {
     /// A pinhole camera for `view` with the shutter closed at time 0.
     pub fn new(view: &View) -> Self {
-        Self { frame: Frame::new(view), shutter: Interval::new(0.0, 0.0) }
+        Self {
+            frame: Frame::new(view),
+            shutter: Interval::new(0.0, 0.0),
+        }
     }
 
     /// The same camera with a shutter interval (for motion blur).
@@ -132,7 +149,11 @@ impl Camera for Pinhole {
     #[inline]
     fn generate_ray(&self, sample: &CameraSample) -> Ray {
         let time = self.shutter.min + sample.time * (self.shutter.max - self.shutter.min);
-        Ray::with_time(self.frame.from, self.frame.direction(sample.film).normalize(), time)
+        Ray::with_time(
+            self.frame.from,
+            self.frame.direction(sample.film).normalize(),
+            time,
+        )
     }
 
     fn resolution(&self) -> (u32, u32) {

@@ -14,7 +14,11 @@ use raylume_material::FresnelMode;
 use raylume_scene::{DEFAULT_SCENE, RenderOptions, Scene, p3f};
 
 #[derive(Parser)]
-#[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
+#[command(
+    name = "raylume",
+    version,
+    about = "raylume: a Whitted and distribution ray tracer"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -92,7 +96,10 @@ struct Failure {
 }
 
 fn bad_input(message: impl ToString) -> Failure {
-    Failure { code: 2, message: message.to_string() }
+    Failure {
+        code: 2,
+        message: message.to_string(),
+    }
 }
 
 fn main() -> ExitCode {
@@ -111,18 +118,25 @@ fn main() -> ExitCode {
 }
 
 fn render(args: RenderArgs) -> Result<(), Failure> {
-    let options = p3f::LoadOptions { strict: args.strict };
+    let options = p3f::LoadOptions {
+        strict: args.strict,
+    };
     let (scene, warnings, mut env_dirs) = match &args.scene {
         Some(path) => {
             let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
             let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-            let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
+            let dir = if dir.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                dir
+            };
             let mut dirs = vec![dir.clone()];
             dirs.push(dir.join(".."));
             (scene, warnings, dirs)
         }
         None => {
-            let (scene, warnings) = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
+            let (scene, warnings) =
+                p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
             (scene, warnings, vec![PathBuf::from(".")])
         }
     };
@@ -135,14 +149,24 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         max_depth: args.depth,
         spp,
         seed: args.seed,
-        fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
+        fresnel: if args.schlick {
+            FresnelMode::Schlick
+        } else {
+            FresnelMode::Exact
+        },
     };
     let n = settings.strata();
     if spp > 1 && n * n != spp {
-        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
+        eprintln!(
+            "raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})",
+            n * n
+        );
     }
     if !args.specular_scale.is_finite() || args.specular_scale < 0.0 {
-        return Err(bad_input(format!("--specular-scale {}: expected a finite number >= 0", args.specular_scale)));
+        return Err(bad_input(format!(
+            "--specular-scale {}: expected a finite number >= 0",
+            args.specular_scale
+        )));
     }
     let accel = args.accel.map(|a| match a {
         AccelArg::None => AccelKind::None,
@@ -158,20 +182,35 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         specular_scale: args.specular_scale,
     };
     // Check the output's format before spending time on the render.
-    let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     if !matches!(ext.as_str(), "png" | "exr" | "pfm") {
-        return Err(bad_input(format!("{}: unknown image format '{ext}' (expected .png, .exr or .pfm)", args.output.display())));
+        return Err(bad_input(format!(
+            "{}: unknown image format '{ext}' (expected .png, .exr or .pfm)",
+            args.output.display()
+        )));
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
-        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
-    let (w, h) = render_options.resolution.unwrap_or((scene.view.width, scene.view.height));
+        .map_err(|e| Failure {
+            code: 1,
+            message: e.to_string(),
+        })?;
+    let (w, h) = render_options
+        .resolution
+        .unwrap_or((scene.view.width, scene.view.height));
     let bar = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(h as u64);
         bar.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
-                .expect("valid template"),
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)",
+            )
+            .expect("valid template"),
         );
         bar
     } else {
@@ -179,7 +218,10 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     };
     let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
     bar.finish_and_clear();
-    out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    out.film.write(&args.output).map_err(|e| Failure {
+        code: 1,
+        message: e.to_string(),
+    })?;
     let s = out.stats;
     let total = out.build_seconds + out.render_seconds;
     eprintln!(
@@ -204,13 +246,19 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn scene_render(scene: &Scene, options: &RenderOptions, bar: &ProgressBar) -> Result<raylume_scene::RenderOutput, Failure> {
+fn scene_render(
+    scene: &Scene,
+    options: &RenderOptions,
+    bar: &ProgressBar,
+) -> Result<raylume_scene::RenderOutput, Failure> {
     scene.render(options, &|| bar.inc(1)).map_err(bad_input)
 }
 
 fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
     let load = |p: &Path| {
-        image::open(p).map(|i| i.into_rgb8()).map_err(|e| bad_input(format!("{}: {e}", p.display())))
+        image::open(p)
+            .map(|i| i.into_rgb8())
+            .map_err(|e| bad_input(format!("{}: {e}", p.display())))
     };
     let (ia, ib) = (load(a)?, load(b)?);
     if ia.dimensions() != ib.dimensions() {
@@ -222,7 +270,12 @@ fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
             ib.dimensions()
         )));
     }
-    let to_f = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>();
+    let to_f = |i: &image::RgbImage| {
+        i.as_raw()
+            .iter()
+            .map(|&v| v as f32 / 255.0)
+            .collect::<Vec<_>>()
+    };
     let rmse = raylume_integrator::metrics::rmse(&to_f(&ia), &to_f(&ib)).unwrap_or(0.0);
     println!("rmse {rmse:.6} ({:.3} of 255)", rmse * 255.0);
     Ok(())

@@ -27,8 +27,8 @@
 //! ```
 
 mod background;
-pub mod metrics;
 mod film;
+pub mod metrics;
 mod render;
 mod whitted;
 
@@ -78,14 +78,39 @@ pub struct World<A, M> {
 
 impl<A: Accelerator, M: Material> World<A, M> {
     /// A world whose primitive `i` uses material `materials[prim_material[i]]`.
-    pub fn new(accel: A, materials: Vec<M>, prim_material: Vec<u32>, lights: Vec<PointLight>, background: Background) -> Self {
-        let shading = prim_material.into_iter().map(|material| Shading { material, normals: u32::MAX }).collect();
-        Self { accel, materials, shading, vertex_normals: Vec::new(), lights, background }
+    pub fn new(
+        accel: A,
+        materials: Vec<M>,
+        prim_material: Vec<u32>,
+        lights: Vec<PointLight>,
+        background: Background,
+    ) -> Self {
+        let shading = prim_material
+            .into_iter()
+            .map(|material| Shading {
+                material,
+                normals: u32::MAX,
+            })
+            .collect();
+        Self {
+            accel,
+            materials,
+            shading,
+            vertex_normals: Vec::new(),
+            lights,
+            background,
+        }
     }
 }
 
 /// Computes the light arriving along a camera ray.
 pub trait Integrator: Sync {
     /// The colour seen along `ray` (a camera ray, whose hits are accepted from `t_min` on).
-    fn radiance<A: Accelerator, M: Material>(&self, world: &World<A, M>, ray: &Ray, t_min: f32, stats: &mut RayStats) -> Vec3;
+    fn radiance<A: Accelerator, M: Material>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        t_min: f32,
+        stats: &mut RayStats,
+    ) -> Vec3;
 }

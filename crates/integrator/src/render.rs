@@ -26,14 +26,23 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { max_depth: 4, spp: 1, seed: 0, fresnel: FresnelMode::Exact }
+        Self {
+            max_depth: 4,
+            spp: 1,
+            seed: 0,
+            fresnel: FresnelMode::Exact,
+        }
     }
 }
 
 impl RenderSettings {
     /// The side of the jittered grid of samples per pixel (1 for a single centre sample).
     pub fn strata(&self) -> u32 {
-        if self.spp <= 1 { 1 } else { (self.spp as f64).sqrt().ceil() as u32 }
+        if self.spp <= 1 {
+            1
+        } else {
+            (self.spp as f64).sqrt().ceil() as u32
+        }
     }
 }
 
@@ -107,7 +116,8 @@ where
                     for p in 0..n {
                         for q in 0..n {
                             let jitter = Vec2::new(uniform(&mut rng), uniform(&mut rng));
-                            let film = Vec2::new(x as f32, y as f32) + (Vec2::new(p as f32, q as f32) + jitter) / n as f32;
+                            let film = Vec2::new(x as f32, y as f32)
+                                + (Vec2::new(p as f32, q as f32) + jitter) / n as f32;
                             let ray = camera.generate_ray(&CameraSample::at_film(film));
                             stats.camera += 1;
                             sum += integrator.radiance(world, &ray, t_min, &mut stats);
@@ -130,7 +140,7 @@ where
 /// A generator seeded by the render seed and the pixel only.
 fn pixel_rng(seed: u64, x: u32, y: u32, width: u32) -> Pcg32 {
     let pixel = y as u64 * width as u64 + x as u64;
-    Pcg32::new(splitmix(seed ^ splitmix(pixel)), 0xa02b_dbf7_bb3c_0a7)
+    Pcg32::new(splitmix(seed ^ splitmix(pixel)), 0x0a02_bdbf_7bb3_c0a7)
 }
 
 fn splitmix(mut z: u64) -> u64 {

@@ -16,11 +16,24 @@ pub struct Whitted {
 impl Whitted {
     /// The integrator for the given settings (depth and Fresnel mode).
     pub fn new(settings: &RenderSettings) -> Self {
-        Self { max_depth: settings.max_depth.max(1), fresnel: settings.fresnel }
+        Self {
+            max_depth: settings.max_depth.max(1),
+            fresnel: settings.fresnel,
+        }
     }
 
-    fn trace<A: Accelerator, M: Material>(&self, world: &World<A, M>, ray: &Ray, t_min: f32, depth: u32, stats: &mut RayStats) -> Vec3 {
-        let Some(found) = world.accel.closest_hit(ray, Interval::new(t_min, f32::INFINITY)) else {
+    fn trace<A: Accelerator, M: Material>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        t_min: f32,
+        depth: u32,
+        stats: &mut RayStats,
+    ) -> Vec3 {
+        let Some(found) = world
+            .accel
+            .closest_hit(ray, Interval::new(t_min, f32::INFINITY))
+        else {
             return world.background.eval(ray.dir);
         };
         let hit = found.hit;
@@ -35,7 +48,13 @@ impl Whitted {
             let vn = world.vertex_normals[shading.normals as usize];
             let b = hit.uv;
             let s = (vn[0] * (1.0 - b.x - b.y) + vn[1] * b.x + vn[2] * b.y).normalize_or_zero();
-            if s == Vec3A::ZERO { n } else if s.dot(n) < 0.0 { -s } else { s }
+            if s == Vec3A::ZERO {
+                n
+            } else if s.dot(n) < 0.0 {
+                -s
+            } else {
+                s
+            }
         };
         let wo = -ray.dir;
         let eps = spawn_offset(hit.point, ray, hit.t);
@@ -69,7 +88,9 @@ impl Whitted {
                         stats.refraction += 1;
                         let below = hit.point - n * eps;
                         let t = Ray::with_time(below, dir, ray.time);
-                        color += (1.0 - kr) * d.transmittance * self.trace(world, &t, 0.0, depth + 1, stats);
+                        color += (1.0 - kr)
+                            * d.transmittance
+                            * self.trace(world, &t, 0.0, depth + 1, stats);
                     }
                 }
             } else {
@@ -89,12 +110,22 @@ impl Whitted {
 /// hit point, which grows with the magnitude of the coordinates and of the ray's travel.
 #[inline]
 fn spawn_offset(p: Vec3A, ray: &Ray, t: f32) -> f32 {
-    let magnitude = p.abs().max_element().max(ray.origin.abs().max_element()).max(t.abs());
+    let magnitude = p
+        .abs()
+        .max_element()
+        .max(ray.origin.abs().max_element())
+        .max(t.abs());
     magnitude * 64.0 * f32::EPSILON + f32::MIN_POSITIVE
 }
 
 impl Integrator for Whitted {
-    fn radiance<A: Accelerator, M: Material>(&self, world: &World<A, M>, ray: &Ray, t_min: f32, stats: &mut RayStats) -> Vec3 {
+    fn radiance<A: Accelerator, M: Material>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        t_min: f32,
+        stats: &mut RayStats,
+    ) -> Vec3 {
         self.trace(world, ray, t_min, 1, stats)
     }
 }

@@ -99,11 +99,18 @@ impl Material for Phong {
 
     #[inline]
     fn mirror(&self) -> Vec3 {
-        if self.transmittance > 0.0 { Vec3::ZERO } else { self.specular * self.ks }
+        if self.transmittance > 0.0 {
+            Vec3::ZERO
+        } else {
+            self.specular * self.ks
+        }
     }
 
     #[inline]
     fn dielectric(&self) -> Option<Dielectric> {
-        (self.transmittance > 0.0).then_some(Dielectric { transmittance: self.transmittance, ior: self.ior })
+        (self.transmittance > 0.0).then_some(Dielectric {
+            transmittance: self.transmittance,
+            ior: self.ior,
+        })
     }
 }

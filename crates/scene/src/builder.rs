@@ -42,8 +42,26 @@ impl SceneBuilder {
     }
 
     /// A pinhole camera at `from` looking at `at`, with a vertical field of view in degrees.
-    pub fn camera(self, from: Vec3A, at: Vec3A, up: Vec3A, angle_deg: f32, width: u32, height: u32) -> Self {
-        self.view(View { from, at, up, angle_deg, hither: 0.0, width, height, aperture: 0.0, focal: 1.0 })
+    pub fn camera(
+        self,
+        from: Vec3A,
+        at: Vec3A,
+        up: Vec3A,
+        angle_deg: f32,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        self.view(View {
+            from,
+            at,
+            up,
+            angle_deg,
+            hither: 0.0,
+            width,
+            height,
+            aperture: 0.0,
+            focal: 1.0,
+        })
     }
 
     /// The camera, with every field of the p3f `v` entity.
@@ -79,7 +97,8 @@ impl SceneBuilder {
     /// Any shape, with the current material.
     pub fn shape(mut self, shape: Shape) -> Self {
         if self.materials.is_empty() {
-            self.error.get_or_insert_with(|| "an object was added before any material".to_owned());
+            self.error
+                .get_or_insert_with(|| "an object was added before any material".to_owned());
         }
         let material = self.materials.len().saturating_sub(1) as u32;
         self.objects.push(Object { material, shape });
@@ -108,7 +127,10 @@ impl SceneBuilder {
 
     /// A triangle mesh with 0-based indices.
     pub fn mesh(self, vertices: Vec<Vec3A>, triangles: Vec<[u32; 3]>) -> Self {
-        self.shape(Shape::Mesh { vertices, triangles })
+        self.shape(Shape::Mesh {
+            vertices,
+            triangles,
+        })
     }
 
     /// The suggested accelerator (0 none, 1 grid, 2 BVH).
@@ -128,7 +150,9 @@ impl SceneBuilder {
         if let Some(e) = self.error {
             return Err(SceneError::Invalid(e));
         }
-        let view = self.view.ok_or_else(|| SceneError::Invalid("the scene has no camera".to_owned()))?;
+        let view = self
+            .view
+            .ok_or_else(|| SceneError::Invalid("the scene has no camera".to_owned()))?;
         Ok(Scene {
             view,
             background: self.background,

@@ -31,17 +31,32 @@ pub struct LoadOptions {
 }
 
 /// The tags of the format.
-const TAGS: &[&str] = &["v", "bclr", "env", "l", "f", "s", "sm", "box", "p", "pp", "pl", "c", "mesh", "accel", "spp"];
+const TAGS: &[&str] = &[
+    "v", "bclr", "env", "l", "f", "s", "sm", "box", "p", "pp", "pl", "c", "mesh", "accel", "spp",
+];
 
 /// Reads and parses a p3f file.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<(Scene, Vec<Warning>), SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
     parse(&text, &path.display().to_string(), options)
 }
 
 /// Parses p3f text; `file` names it in messages.
-pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<(Scene, Vec<Warning>), SceneError> {
-    Parser { lex: Lexer::new(text), file, options, warnings: Vec::new() }.scene()
+pub fn parse(
+    text: &str,
+    file: &str,
+    options: &LoadOptions,
+) -> Result<(Scene, Vec<Warning>), SceneError> {
+    Parser {
+        lex: Lexer::new(text),
+        file,
+        options,
+        warnings: Vec::new(),
+    }
+    .scene()
 }
 
 /// A token and where it starts.
@@ -62,7 +77,13 @@ struct Lexer<'a> {
 
 impl<'a> Lexer<'a> {
     fn new(text: &'a str) -> Self {
-        Self { text, pos: 0, line: 1, line_start: 0, peeked: None }
+        Self {
+            text,
+            pos: 0,
+            line: 1,
+            line_start: 0,
+            peeked: None,
+        }
     }
 
     fn scan(&mut self) -> Option<Token<'a>> {
@@ -87,11 +108,18 @@ impl<'a> Lexer<'a> {
             return None;
         }
         let start = self.pos;
-        while self.pos < bytes.len() && !bytes[self.pos].is_ascii_whitespace() && bytes[self.pos] != b'#' {
+        while self.pos < bytes.len()
+            && !bytes[self.pos].is_ascii_whitespace()
+            && bytes[self.pos] != b'#'
+        {
             self.pos += 1;
         }
         let column = self.text[self.line_start..start].chars().count() as u32 + 1;
-        Some(Token { text: &self.text[start..self.pos], line: self.line, column })
+        Some(Token {
+            text: &self.text[start..self.pos],
+            line: self.line,
+            column,
+        })
     }
 
     fn next(&mut self) -> Option<Token<'a>> {
@@ -129,7 +157,12 @@ struct Parser<'a, 'f> {
 
 impl<'a> Parser<'a, '_> {
     fn error_at(&self, line: u32, column: u32, message: String) -> SceneError {
-        SceneError::Syntax { file: self.file.to_owned(), line, column, message }
+        SceneError::Syntax {
+            file: self.file.to_owned(),
+            line,
+            column,
+            message,
+        }
     }
 
     fn error(&self, token: &Token, message: String) -> SceneError {
@@ -142,7 +175,11 @@ impl<'a> Parser<'a, '_> {
             Some(t) => Ok(t),
             None => {
                 let (line, column) = self.lex.eof_position();
-                Err(self.error_at(line, column, format!("expected {expected}, found the end of the file")))
+                Err(self.error_at(
+                    line,
+                    column,
+                    format!("expected {expected}, found the end of the file"),
+                ))
             }
         }
     }
@@ -151,8 +188,14 @@ impl<'a> Parser<'a, '_> {
         let t = self.token(&format!("a number ({what})"))?;
         match t.text.parse::<f64>() {
             Ok(v) if v.is_finite() && (v as f32).is_finite() => Ok(v as f32),
-            Ok(_) => Err(self.error(&t, format!("expected a finite number ({what}), found '{}'", t.text))),
-            Err(_) => Err(self.error(&t, format!("expected a number ({what}), found '{}'", t.text))),
+            Ok(_) => Err(self.error(
+                &t,
+                format!("expected a finite number ({what}), found '{}'", t.text),
+            )),
+            Err(_) => Err(self.error(
+                &t,
+                format!("expected a number ({what}), found '{}'", t.text),
+            )),
         }
     }
 
@@ -176,7 +219,10 @@ impl<'a> Parser<'a, '_> {
         let v = self.number(what)?;
         if v <= 0.0 {
             let t = t.expect("a number was read");
-            return Err(self.error(&t, format!("expected a positive {what}, found '{}'", t.text)));
+            return Err(self.error(
+                &t,
+                format!("expected a positive {what}, found '{}'", t.text),
+            ));
         }
         Ok(v)
     }
@@ -186,8 +232,14 @@ impl<'a> Parser<'a, '_> {
         let t = self.token(&format!("an integer ({what})"))?;
         match t.text.parse::<i64>() {
             Ok(v) if (min..=max).contains(&v) => Ok(v),
-            Ok(_) => Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.text))),
-            Err(_) => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.text))),
+            Ok(_) => Err(self.error(
+                &t,
+                format!("expected {what} in {min}..={max}, found '{}'", t.text),
+            )),
+            Err(_) => Err(self.error(
+                &t,
+                format!("expected an integer ({what}), found '{}'", t.text),
+            )),
         }
     }
 
@@ -225,9 +277,18 @@ impl<'a> Parser<'a, '_> {
         let mut accel_hint = None;
         let mut spp_hint = None;
         while let Some(tag) = self.lex.next() {
-            let needs_material = matches!(tag.text, "s" | "sm" | "box" | "p" | "pp" | "pl" | "c" | "mesh");
+            let needs_material = matches!(
+                tag.text,
+                "s" | "sm" | "box" | "p" | "pp" | "pl" | "c" | "mesh"
+            );
             if needs_material && materials.is_empty() {
-                return Err(self.error(&tag, format!("'{}' comes before any material: expected an 'f' entity first", tag.text)));
+                return Err(self.error(
+                    &tag,
+                    format!(
+                        "'{}' comes before any material: expected an 'f' entity first",
+                        tag.text
+                    ),
+                ));
             }
             let material = materials.len().saturating_sub(1) as u32;
             let shape = match tag.text {
@@ -245,7 +306,11 @@ impl<'a> Parser<'a, '_> {
                 }
                 "l" => {
                     let position = self.vec3("light position")?;
-                    let color = if self.next_is_number() { self.color("light colour")? } else { Vec3::ONE };
+                    let color = if self.next_is_number() {
+                        self.color("light colour")?
+                    } else {
+                        Vec3::ONE
+                    };
                     lights.push(Light { position, color });
                     None
                 }
@@ -264,7 +329,13 @@ impl<'a> Parser<'a, '_> {
                     let radius = self.positive("moving sphere radius")?;
                     let time0 = self.number("moving sphere t0")?;
                     let time1 = self.number("moving sphere t1")?;
-                    Some(Shape::MovingSphere { center0, center1, radius, time0, time1 })
+                    Some(Shape::MovingSphere {
+                        center0,
+                        center1,
+                        radius,
+                        time0,
+                        time1,
+                    })
                 }
                 "box" => {
                     let min = self.vec3("box min")?;
@@ -272,7 +343,9 @@ impl<'a> Parser<'a, '_> {
                     let max = self.vec3("box max")?;
                     if min.cmpgt(max).any() {
                         let t = t.expect("a number was read");
-                        return Err(self.error(&t, "expected box max >= box min on every axis".to_owned()));
+                        return Err(
+                            self.error(&t, "expected box max >= box min on every axis".to_owned())
+                        );
                     }
                     Some(Shape::Box { min, max })
                 }
@@ -299,7 +372,10 @@ impl<'a> Parser<'a, '_> {
                     let p1 = self.vec3("plane point 1")?;
                     let p2 = self.vec3("plane point 2")?;
                     if raylume_geometry::Plane::from_points(p0, p1, p2).is_none() {
-                        return Err(self.error(&tag, "expected three plane points that are not collinear".to_owned()));
+                        return Err(self.error(
+                            &tag,
+                            "expected three plane points that are not collinear".to_owned(),
+                        ));
                     }
                     Some(Shape::Plane([p0, p1, p2]))
                 }
@@ -308,14 +384,25 @@ impl<'a> Parser<'a, '_> {
                     let base_radius = self.number("cone base radius")?;
                     let apex = self.vec3("cone apex")?;
                     let apex_radius = self.number("cone apex radius")?;
-                    if base_radius < 0.0 || apex_radius < 0.0 || (base_radius == 0.0 && apex_radius == 0.0) {
-                        return Err(self.error(&tag, "expected cone radii >= 0, not both 0".to_owned()));
+                    if base_radius < 0.0
+                        || apex_radius < 0.0
+                        || (base_radius == 0.0 && apex_radius == 0.0)
+                    {
+                        return Err(
+                            self.error(&tag, "expected cone radii >= 0, not both 0".to_owned())
+                        );
                     }
-                    Some(Shape::Cone { base, base_radius, apex, apex_radius })
+                    Some(Shape::Cone {
+                        base,
+                        base_radius,
+                        apex,
+                        apex_radius,
+                    })
                 }
                 "mesh" => Some(self.mesh()?),
                 "accel" => {
-                    accel_hint = Some(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32);
+                    accel_hint =
+                        Some(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32);
                     None
                 }
                 "spp" => {
@@ -333,27 +420,56 @@ impl<'a> Parser<'a, '_> {
         }
         let Some(view) = view else {
             let (line, column) = self.lex.eof_position();
-            return Err(self.error_at(line, column, "expected a camera ('v' entity), found none in the file".to_owned()));
+            return Err(self.error_at(
+                line,
+                column,
+                "expected a camera ('v' entity), found none in the file".to_owned(),
+            ));
         };
-        let scene = Scene { view, background, env, lights, materials, objects, accel_hint, spp_hint };
+        let scene = Scene {
+            view,
+            background,
+            env,
+            lights,
+            materials,
+            objects,
+            accel_hint,
+            spp_hint,
+        };
         Ok((scene, self.warnings))
     }
 
     fn next_is_number(&mut self) -> bool {
-        self.lex.peek().is_some_and(|t| t.text.parse::<f64>().is_ok())
+        self.lex
+            .peek()
+            .is_some_and(|t| t.text.parse::<f64>().is_ok())
     }
 
     /// Skips an unknown tag and its numbers (up to the next known tag), with a warning.
     fn unknown(&mut self, tag: &Token) -> Result<(), SceneError> {
-        let message = if TAGS.iter().any(|k| k.eq_ignore_ascii_case(tag.text)) || tag.text.parse::<f64>().is_err() {
-            format!("unknown tag '{}' (expected one of {}), skipped", tag.text, TAGS.join(" "))
+        let message = if TAGS.iter().any(|k| k.eq_ignore_ascii_case(tag.text))
+            || tag.text.parse::<f64>().is_err()
+        {
+            format!(
+                "unknown tag '{}' (expected one of {}), skipped",
+                tag.text,
+                TAGS.join(" ")
+            )
         } else {
-            format!("unexpected number '{}' where a tag was expected, skipped", tag.text)
+            format!(
+                "unexpected number '{}' where a tag was expected, skipped",
+                tag.text
+            )
         };
         if self.options.strict {
             return Err(self.error(tag, message.replace(", skipped", "")));
         }
-        self.warnings.push(Warning { file: self.file.to_owned(), line: tag.line, column: tag.column, message });
+        self.warnings.push(Warning {
+            file: self.file.to_owned(),
+            line: tag.line,
+            column: tag.column,
+            message,
+        });
         while let Some(t) = self.lex.peek() {
             if TAGS.contains(&t.text) {
                 break;
@@ -376,7 +492,10 @@ impl<'a> Parser<'a, '_> {
         let angle_deg = self.number("angle in degrees")?;
         if !(angle_deg > 0.0 && angle_deg < 180.0) {
             let t = angle_token.expect("a number was read");
-            return Err(self.error(&t, format!("expected an angle in (0, 180) degrees, found '{}'", t.text)));
+            return Err(self.error(
+                &t,
+                format!("expected an angle in (0, 180) degrees, found '{}'", t.text),
+            ));
         }
         self.keyword("hither")?;
         let hither = self.number("hither")?;
@@ -386,14 +505,20 @@ impl<'a> Parser<'a, '_> {
         let height = self.integer("resolution height", 1, MAX_RESOLUTION as i64)? as u32;
         if width as u64 * height as u64 > MAX_PIXELS {
             let t = res_token.expect("a number was read");
-            return Err(self.error(&t, format!("resolution {width} x {height} exceeds {MAX_PIXELS} pixels")));
+            return Err(self.error(
+                &t,
+                format!("resolution {width} x {height} exceeds {MAX_PIXELS} pixels"),
+            ));
         }
         let (mut aperture, mut focal) = (0.0, 1.0);
         if self.lex.peek().is_some_and(|t| t.text == "aperture") {
             self.lex.next();
             aperture = self.number("aperture")?;
             if aperture < 0.0 {
-                return Err(self.error(&res_token.expect("read"), "expected aperture >= 0".to_owned()));
+                return Err(self.error(
+                    &res_token.expect("read"),
+                    "expected aperture >= 0".to_owned(),
+                ));
             }
             self.keyword("focal")?;
             focal = self.positive("focal ratio")?;
@@ -401,9 +526,22 @@ impl<'a> Parser<'a, '_> {
         let dir = from - at;
         if dir.length_squared() == 0.0 || up.cross(dir).length_squared() == 0.0 {
             let t = up_token.expect("a number was read");
-            return Err(self.error(&t, "expected 'from' != 'at' and 'up' not parallel to the view direction".to_owned()));
+            return Err(self.error(
+                &t,
+                "expected 'from' != 'at' and 'up' not parallel to the view direction".to_owned(),
+            ));
         }
-        Ok(View { from, at, up, angle_deg, hither, width, height, aperture, focal })
+        Ok(View {
+            from,
+            at,
+            up,
+            angle_deg,
+            hither,
+            width,
+            height,
+            aperture,
+            focal,
+        })
     }
 
     fn material(&mut self) -> Result<Phong, SceneError> {
@@ -419,7 +557,16 @@ impl<'a> Parser<'a, '_> {
             let t = ior_token.expect("a number was read");
             return Err(self.error(&t, format!("expected a positive index of refraction for a transparent material, found '{}'", t.text)));
         }
-        Ok(Phong { diffuse, kd, specular, ks, shine, transmittance, ior, specular_scale: 1.0 })
+        Ok(Phong {
+            diffuse,
+            kd,
+            specular,
+            ks,
+            shine,
+            transmittance,
+            ior,
+            specular_scale: 1.0,
+        })
     }
 
     fn mesh(&mut self) -> Result<Shape, SceneError> {
@@ -442,17 +589,25 @@ impl<'a> Parser<'a, '_> {
                 let t = self.token("a vertex index")?;
                 let what = format!("vertex index {} of mesh triangle {}", k + 1, f + 1);
                 let Ok(i) = t.text.parse::<i64>() else {
-                    return Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.text)));
+                    return Err(self.error(
+                        &t,
+                        format!("expected an integer ({what}), found '{}'", t.text),
+                    ));
                 };
                 // 1-based; non-positive counts back from the end (OBJ style).
                 let zero_based = if i > 0 { i - 1 } else { nv as i64 + i };
                 if zero_based < 0 || zero_based >= nv as i64 {
-                    return Err(self.error(&t, format!("{what} is {i}, out of range for {nv} vertices")));
+                    return Err(
+                        self.error(&t, format!("{what} is {i}, out of range for {nv} vertices"))
+                    );
                 }
                 *slot = zero_based as u32;
             }
             triangles.push(tri);
         }
-        Ok(Shape::Mesh { vertices, triangles })
+        Ok(Shape::Mesh {
+            vertices,
+            triangles,
+        })
     }
 }

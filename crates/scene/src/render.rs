@@ -4,7 +4,9 @@ use std::time::Instant;
 use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh};
 use raylume_camera::{Camera, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, MovingSphere, Plane, Sphere, Triangle, Vec3A};
-use raylume_integrator::{Background, Film, PointLight, RayStats, RenderSettings, Shading, Whitted, World, render};
+use raylume_integrator::{
+    Background, Film, PointLight, RayStats, RenderSettings, Shading, Whitted, World, render,
+};
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
@@ -78,11 +80,26 @@ impl Scene {
         for o in &self.objects {
             let mut push = |p: Primitive, normals: u32| {
                 out.primitives.push(p);
-                out.shading.push(Shading { material: o.material, normals });
+                out.shading.push(Shading {
+                    material: o.material,
+                    normals,
+                });
             };
             match &o.shape {
-                Shape::Sphere { center, radius } => push(Primitive::Sphere(Sphere { center: *center, radius: *radius }), none),
-                Shape::MovingSphere { center0, center1, radius, time0, time1 } => push(
+                Shape::Sphere { center, radius } => push(
+                    Primitive::Sphere(Sphere {
+                        center: *center,
+                        radius: *radius,
+                    }),
+                    none,
+                ),
+                Shape::MovingSphere {
+                    center0,
+                    center1,
+                    radius,
+                    time0,
+                    time1,
+                } => push(
                     Primitive::MovingSphere(MovingSphere {
                         center0: *center0,
                         center1: *center1,
@@ -92,10 +109,18 @@ impl Scene {
                     }),
                     none,
                 ),
-                Shape::Box { min, max } => push(Primitive::Box(AaBox { bounds: Aabb::new(*min, *max) }), none),
+                Shape::Box { min, max } => push(
+                    Primitive::Box(AaBox {
+                        bounds: Aabb::new(*min, *max),
+                    }),
+                    none,
+                ),
                 Shape::Polygon(v) => {
                     for i in 1..v.len().saturating_sub(1) {
-                        push(Primitive::Triangle(Triangle::new(v[0], v[i], v[i + 1])), none);
+                        push(
+                            Primitive::Triangle(Triangle::new(v[0], v[i], v[i + 1])),
+                            none,
+                        );
                     }
                 }
                 Shape::Patch(v) => {
@@ -105,9 +130,15 @@ impl Scene {
                         out.vertex_normals.push(normals);
                         let mut push = |p: Primitive, normals: u32| {
                             out.primitives.push(p);
-                            out.shading.push(Shading { material: o.material, normals });
+                            out.shading.push(Shading {
+                                material: o.material,
+                                normals,
+                            });
                         };
-                        push(Primitive::Triangle(Triangle::new(v[0].0, v[i].0, v[i + 1].0)), index);
+                        push(
+                            Primitive::Triangle(Triangle::new(v[0].0, v[i].0, v[i + 1].0)),
+                            index,
+                        );
                     }
                 }
                 Shape::Plane([p0, p1, p2]) => {
@@ -115,11 +146,24 @@ impl Scene {
                         push(Primitive::Plane(plane), none);
                     }
                 }
-                Shape::Cone { base, base_radius, apex, apex_radius } => push(
-                    Primitive::Cone(Cone { base: *base, base_radius: *base_radius, apex: *apex, apex_radius: *apex_radius }),
+                Shape::Cone {
+                    base,
+                    base_radius,
+                    apex,
+                    apex_radius,
+                } => push(
+                    Primitive::Cone(Cone {
+                        base: *base,
+                        base_radius: *base_radius,
+                        apex: *apex,
+                        apex_radius: *apex_radius,
+                    }),
                     none,
                 ),
-                Shape::Mesh { vertices, triangles } => {
+                Shape::Mesh {
+                    vertices,
+                    triangles,
+                } => {
                     for t in triangles {
                         let [a, b, c] = t.map(|i| vertices[i as usize]);
                         push(Primitive::Triangle(Triangle::new(a, b, c)), none);
@@ -140,10 +184,19 @@ impl Scene {
     }
 
     /// Renders the scene. `on_row` is called once per finished image row.
-    pub fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError> {
+    pub fn render(
+        &self,
+        options: &RenderOptions,
+        on_row: &(dyn Fn() + Sync),
+    ) -> Result<RenderOutput, SceneError> {
         let mut view = self.view;
         if let Some((w, h)) = options.resolution {
-            if w == 0 || h == 0 || w > p3f::MAX_RESOLUTION || h > p3f::MAX_RESOLUTION || w as u64 * h as u64 > p3f::MAX_PIXELS {
+            if w == 0
+                || h == 0
+                || w > p3f::MAX_RESOLUTION
+                || h > p3f::MAX_RESOLUTION
+                || w as u64 * h as u64 > p3f::MAX_PIXELS
+            {
                 return Err(SceneError::Invalid(format!(
                     "resolution {w} x {h}: each side must be 1..={} and the image at most {} pixels",
                     p3f::MAX_RESOLUTION,
@@ -157,11 +210,31 @@ impl Scene {
             (Some(name), true) => Some(load_cubemap(name, &options.env_dirs)?),
             _ => None,
         };
-        let background = Background { color: self.background, env };
-        let lights = self.lights.iter().map(|l| PointLight { position: l.position, color: l.color }).collect();
-        let materials: Vec<Phong> =
-            self.materials.iter().map(|m| Phong { specular_scale: options.specular_scale, ..*m }).collect();
-        let Primitives { primitives, shading, vertex_normals } = self.primitives();
+        let background = Background {
+            color: self.background,
+            env,
+        };
+        let lights = self
+            .lights
+            .iter()
+            .map(|l| PointLight {
+                position: l.position,
+                color: l.color,
+            })
+            .collect();
+        let materials: Vec<Phong> = self
+            .materials
+            .iter()
+            .map(|m| Phong {
+                specular_scale: options.specular_scale,
+                ..*m
+            })
+            .collect();
+        let Primitives {
+            primitives,
+            shading,
+            vertex_normals,
+        } = self.primitives();
         let shutter = self.shutter();
         let kind = match self.accel_kind(options) {
             // The uniform grid is not built yet: the BVH stands in for it.
@@ -173,19 +246,39 @@ impl Scene {
         let settings = &options.settings;
         let (film, stats, build_seconds, render_seconds) = match kind {
             AccelKind::None => {
-                let world = World { accel: BruteForce::new(primitives), materials, shading, vertex_normals, lights, background };
+                let world = World {
+                    accel: BruteForce::new(primitives),
+                    materials,
+                    shading,
+                    vertex_normals,
+                    lights,
+                    background,
+                };
                 let b = build.elapsed().as_secs_f64();
                 let (f, s, r) = render_with(&world, &view, shutter, &integrator, settings, on_row);
                 (f, s, b, r)
             }
             _ => {
-                let world = World { accel: Bvh::new(primitives, shutter), materials, shading, vertex_normals, lights, background };
+                let world = World {
+                    accel: Bvh::new(primitives, shutter),
+                    materials,
+                    shading,
+                    vertex_normals,
+                    lights,
+                    background,
+                };
                 let b = build.elapsed().as_secs_f64();
                 let (f, s, r) = render_with(&world, &view, shutter, &integrator, settings, on_row);
                 (f, s, b, r)
             }
         };
-        Ok(RenderOutput { film, stats, accel: kind, build_seconds, render_seconds })
+        Ok(RenderOutput {
+            film,
+            stats,
+            accel: kind,
+            build_seconds,
+            render_seconds,
+        })
     }
 }
 
@@ -210,8 +303,20 @@ fn render_with<A: Accelerator>(
         (film, stats, start.elapsed().as_secs_f64())
     }
     if view.aperture > 0.0 {
-        go(world, &ThinLens::new(view).with_shutter(shutter), integrator, settings, on_row)
+        go(
+            world,
+            &ThinLens::new(view).with_shutter(shutter),
+            integrator,
+            settings,
+            on_row,
+        )
     } else {
-        go(world, &Pinhole::new(view).with_shutter(shutter), integrator, settings, on_row)
+        go(
+            world,
+            &Pinhole::new(view).with_shutter(shutter),
+            integrator,
+            settings,
+            on_row,
+        )
     }
 }

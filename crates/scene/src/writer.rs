@@ -37,7 +37,11 @@ impl Scene {
         v3(o, v.at);
         o.push_str("\nup ");
         v3(o, v.up);
-        let _ = writeln!(o, "\nangle {}\nhither {}\nresolution {} {}", v.angle_deg, v.hither, v.width, v.height);
+        let _ = writeln!(
+            o,
+            "\nangle {}\nhither {}\nresolution {} {}",
+            v.angle_deg, v.hither, v.width, v.height
+        );
         let _ = writeln!(o, "aperture {}\nfocal {}", v.aperture, v.focal);
         for l in &self.lights {
             o.push_str("l ");
@@ -54,7 +58,11 @@ impl Scene {
             let _ = write!(o, " {} ", m.kd);
             c3(o, m.specular);
             let _ = writeln!(o, " {} {} {} {}", m.ks, m.shine, m.transmittance, m.ior);
-            for obj in self.objects.iter().filter(|obj| obj.material as usize == index) {
+            for obj in self
+                .objects
+                .iter()
+                .filter(|obj| obj.material as usize == index)
+            {
                 write_shape(o, &obj.shape);
             }
         }
@@ -63,66 +71,80 @@ impl Scene {
 }
 
 fn write_shape(o: &mut String, shape: &Shape) {
-            match shape {
-                Shape::Sphere { center, radius } => {
-                    o.push_str("s ");
-                    v3(o, *center);
-                    let _ = writeln!(o, " {radius}");
-                }
-                Shape::MovingSphere { center0, center1, radius, time0, time1 } => {
-                    o.push_str("sm ");
-                    v3(o, *center0);
-                    o.push(' ');
-                    v3(o, *center1);
-                    let _ = writeln!(o, " {radius} {time0} {time1}");
-                }
-                Shape::Box { min, max } => {
-                    o.push_str("box ");
-                    v3(o, *min);
-                    o.push(' ');
-                    v3(o, *max);
-                    o.push('\n');
-                }
-                Shape::Polygon(vs) => {
-                    let _ = writeln!(o, "p {}", vs.len());
-                    for p in vs {
-                        v3(o, *p);
-                        o.push('\n');
-                    }
-                }
-                Shape::Patch(vs) => {
-                    let _ = writeln!(o, "pp {}", vs.len());
-                    for (p, n) in vs {
-                        v3(o, *p);
-                        o.push(' ');
-                        v3(o, *n);
-                        o.push('\n');
-                    }
-                }
-                Shape::Plane(ps) => {
-                    o.push_str("pl");
-                    for p in ps {
-                        o.push(' ');
-                        v3(o, *p);
-                    }
-                    o.push('\n');
-                }
-                Shape::Cone { base, base_radius, apex, apex_radius } => {
-                    o.push_str("c ");
-                    v3(o, *base);
-                    let _ = write!(o, " {base_radius} ");
-                    v3(o, *apex);
-                    let _ = writeln!(o, " {apex_radius}");
-                }
-                Shape::Mesh { vertices, triangles } => {
-                    let _ = writeln!(o, "mesh {} {}", vertices.len(), triangles.len());
-                    for p in vertices {
-                        v3(o, *p);
-                        o.push('\n');
-                    }
-                    for t in triangles {
-                        let _ = writeln!(o, "{} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
-                    }
-                }
+    match shape {
+        Shape::Sphere { center, radius } => {
+            o.push_str("s ");
+            v3(o, *center);
+            let _ = writeln!(o, " {radius}");
+        }
+        Shape::MovingSphere {
+            center0,
+            center1,
+            radius,
+            time0,
+            time1,
+        } => {
+            o.push_str("sm ");
+            v3(o, *center0);
+            o.push(' ');
+            v3(o, *center1);
+            let _ = writeln!(o, " {radius} {time0} {time1}");
+        }
+        Shape::Box { min, max } => {
+            o.push_str("box ");
+            v3(o, *min);
+            o.push(' ');
+            v3(o, *max);
+            o.push('\n');
+        }
+        Shape::Polygon(vs) => {
+            let _ = writeln!(o, "p {}", vs.len());
+            for p in vs {
+                v3(o, *p);
+                o.push('\n');
             }
+        }
+        Shape::Patch(vs) => {
+            let _ = writeln!(o, "pp {}", vs.len());
+            for (p, n) in vs {
+                v3(o, *p);
+                o.push(' ');
+                v3(o, *n);
+                o.push('\n');
+            }
+        }
+        Shape::Plane(ps) => {
+            o.push_str("pl");
+            for p in ps {
+                o.push(' ');
+                v3(o, *p);
+            }
+            o.push('\n');
+        }
+        Shape::Cone {
+            base,
+            base_radius,
+            apex,
+            apex_radius,
+        } => {
+            o.push_str("c ");
+            v3(o, *base);
+            let _ = write!(o, " {base_radius} ");
+            v3(o, *apex);
+            let _ = writeln!(o, " {apex_radius}");
+        }
+        Shape::Mesh {
+            vertices,
+            triangles,
+        } => {
+            let _ = writeln!(o, "mesh {} {}", vertices.len(), triangles.len());
+            for p in vertices {
+                v3(o, *p);
+                o.push('\n');
+            }
+            for t in triangles {
+                let _ = writeln!(o, "{} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+            }
+        }
+    }
 }
