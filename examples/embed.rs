@@ -6,26 +6,11 @@ use raylume::prelude::*;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = SceneBuilder::new()
-        .camera(
-            Vec3A::new(0.0, 1.5, 6.0),
-            Vec3A::new(0.0, 0.5, 0.0),
-            Vec3A::Y,
-            40.0,
-            320,
-            240,
-        )
+        .camera(Vec3A::new(0.0, 1.5, 6.0), Vec3A::new(0.0, 0.5, 0.0), Vec3A::Y, 40.0, 320, 240)
         .background(Vec3::new(0.5, 0.7, 0.9))
         .light(Vec3A::new(4.0, 6.0, 5.0), Vec3::ONE)
-        .material(Phong {
-            diffuse: Vec3::new(0.8, 0.8, 0.75),
-            kd: 0.9,
-            ..Phong::default()
-        })
-        .plane([
-            Vec3A::ZERO,
-            Vec3A::new(0.0, 0.0, -1.0),
-            Vec3A::new(-1.0, 0.0, 0.0),
-        ])
+        .material(Phong { diffuse: Vec3::new(0.8, 0.8, 0.75), kd: 0.9, ..Phong::default() })
+        .plane([Vec3A::ZERO, Vec3A::new(0.0, 0.0, -1.0), Vec3A::new(-1.0, 0.0, 0.0)])
         .material(Phong {
             diffuse: Vec3::new(0.9, 0.2, 0.1),
             kd: 0.8,
@@ -36,22 +21,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .sphere(Vec3A::new(0.0, 1.0, 0.0), 1.0)
         .build()?;
-    let options = RenderOptions {
-        settings: RenderSettings {
-            spp: 4,
-            ..RenderSettings::default()
-        },
-        ..RenderOptions::default()
-    };
+    let options =
+        RenderOptions { settings: RenderSettings { spp: 4, ..RenderSettings::default() }, ..RenderOptions::default() };
     let out = scene.render(&options, &|| {})?;
-    let path = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "embed.png".to_owned());
+    let path = std::env::args().nth(1).unwrap_or_else(|| "embed.png".to_owned());
     out.film.write(std::path::Path::new(&path))?;
-    println!(
-        "wrote {path}: {} rays in {:.3} s",
-        out.stats.total(),
-        out.render_seconds
-    );
+    println!("wrote {path}: {} rays in {:.3} s", out.stats.total(), out.render_seconds);
     Ok(())
 }

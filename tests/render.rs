@@ -17,11 +17,7 @@ fn shared() -> Option<PathBuf> {
 }
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
 }
 
 /// A lone sphere seen head-on covers the fraction of the image its projected disc predicts.
@@ -30,20 +26,9 @@ fn lone_sphere_silhouette_matches_the_analytic_fraction() {
     let (dist, radius, fov, size) = (6.0f32, 1.3f32, 40.0f32, 256u32);
     // Lit from the eye, so every visible point of the sphere is brighter than the black background.
     let scene = SceneBuilder::new()
-        .camera(
-            Vec3A::new(0.0, 0.0, dist),
-            Vec3A::ZERO,
-            Vec3A::Y,
-            fov,
-            size,
-            size,
-        )
+        .camera(Vec3A::new(0.0, 0.0, dist), Vec3A::ZERO, Vec3A::Y, fov, size, size)
         .light(Vec3A::new(0.0, 0.0, dist), Vec3::ONE)
-        .material(Phong {
-            diffuse: Vec3::ONE,
-            kd: 1.0,
-            ..Phong::default()
-        })
+        .material(Phong { diffuse: Vec3::ONE, kd: 1.0, ..Phong::default() })
         .sphere(Vec3A::ZERO, radius)
         .build()
         .unwrap();
@@ -55,10 +40,7 @@ fn lone_sphere_silhouette_matches_the_analytic_fraction() {
     let half_angle = (radius as f64 / dist as f64).asin();
     let disc = half_angle.tan() / (fov as f64 / 2.0).to_radians().tan();
     let expected = std::f64::consts::PI * disc * disc / 4.0;
-    assert!(
-        (fraction - expected).abs() / expected < 0.01,
-        "coverage {fraction} vs analytic {expected}"
-    );
+    assert!((fraction - expected).abs() / expected < 0.01, "coverage {fraction} vs analytic {expected}");
 }
 
 /// A glass sphere whose index matches the air is invisible: the image is the background alone.
@@ -66,21 +48,10 @@ fn lone_sphere_silhouette_matches_the_analytic_fraction() {
 fn index_matched_glass_is_invisible() {
     let build = |with_sphere: bool| {
         let mut b = SceneBuilder::new()
-            .camera(
-                Vec3A::new(0.0, 0.0, 5.0),
-                Vec3A::ZERO,
-                Vec3A::Y,
-                40.0,
-                48,
-                48,
-            )
+            .camera(Vec3A::new(0.0, 0.0, 5.0), Vec3A::ZERO, Vec3A::Y, 40.0, 48, 48)
             .background(Vec3::new(0.2, 0.4, 0.6))
             .light(Vec3A::new(5.0, 5.0, 5.0), Vec3::ONE)
-            .material(Phong {
-                diffuse: Vec3::new(0.9, 0.1, 0.1),
-                kd: 0.9,
-                ..Phong::default()
-            })
+            .material(Phong { diffuse: Vec3::new(0.9, 0.1, 0.1), kd: 0.9, ..Phong::default() })
             .aabox(Vec3A::new(-0.4, -0.4, -3.0), Vec3A::new(0.4, 0.4, -2.5))
             .material(Phong {
                 diffuse: Vec3::ZERO,
@@ -94,47 +65,23 @@ fn index_matched_glass_is_invisible() {
         if with_sphere {
             b = b.sphere(Vec3A::ZERO, 1.2);
         }
-        b.build()
-            .unwrap()
-            .render(&RenderOptions::default(), &|| {})
-            .unwrap()
-            .film
+        b.build().unwrap().render(&RenderOptions::default(), &|| {}).unwrap().film
     };
     let (glass, empty) = (build(true), build(false));
-    let diff = glass
-        .pixels()
-        .iter()
-        .zip(empty.pixels())
-        .map(|(a, b)| (*a - *b).abs().max_element())
-        .fold(0.0, f32::max);
+    let diff =
+        glass.pixels().iter().zip(empty.pixels()).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0, f32::max);
     // The box behind the sphere is seen through it undistorted (shadow rays stop at the glass,
     // but the box is lit from the front-right, away from the sphere's shadow).
     assert!(diff < 1e-3, "index-matched glass changed a pixel by {diff}");
     // And a real glass sphere (n = 1.5) does change it.
     let real = {
         SceneBuilder::new()
-            .camera(
-                Vec3A::new(0.0, 0.0, 5.0),
-                Vec3A::ZERO,
-                Vec3A::Y,
-                40.0,
-                48,
-                48,
-            )
+            .camera(Vec3A::new(0.0, 0.0, 5.0), Vec3A::ZERO, Vec3A::Y, 40.0, 48, 48)
             .background(Vec3::new(0.2, 0.4, 0.6))
             .light(Vec3A::new(5.0, 5.0, 5.0), Vec3::ONE)
-            .material(Phong {
-                diffuse: Vec3::new(0.9, 0.1, 0.1),
-                kd: 0.9,
-                ..Phong::default()
-            })
+            .material(Phong { diffuse: Vec3::new(0.9, 0.1, 0.1), kd: 0.9, ..Phong::default() })
             .aabox(Vec3A::new(-0.4, -0.4, -3.0), Vec3A::new(0.4, 0.4, -2.5))
-            .material(Phong {
-                kd: 0.0,
-                transmittance: 1.0,
-                ior: 1.5,
-                ..Phong::default()
-            })
+            .material(Phong { kd: 0.0, transmittance: 1.0, ior: 1.5, ..Phong::default() })
             .sphere(Vec3A::ZERO, 1.2)
             .build()
             .unwrap()
@@ -148,18 +95,9 @@ fn index_matched_glass_is_invisible() {
 /// The same seed gives the same bytes on 1 and 2 threads; another seed gives other bytes.
 #[test]
 fn images_are_identical_whatever_the_thread_count() {
-    let (scene, _) = p3f::parse(
-        raylume::scene::DEFAULT_SCENE,
-        "default",
-        &Default::default(),
-    )
-    .unwrap();
+    let (scene, _) = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap();
     let options = |seed| RenderOptions {
-        settings: RenderSettings {
-            spp: 4,
-            seed,
-            ..RenderSettings::default()
-        },
+        settings: RenderSettings { spp: 4, seed, ..RenderSettings::default() },
         resolution: Some((96, 60)),
         ..RenderOptions::default()
     };
@@ -175,24 +113,12 @@ fn images_are_identical_whatever_the_thread_count() {
 /// The brute-force list and the BVH render the same image.
 #[test]
 fn accelerators_render_identical_images() {
-    let (scene, _) = p3f::parse(
-        raylume::scene::DEFAULT_SCENE,
-        "default",
-        &Default::default(),
-    )
-    .unwrap();
+    let (scene, _) = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap();
     let render = |accel| {
-        let o = RenderOptions {
-            accel: Some(accel),
-            resolution: Some((80, 50)),
-            ..RenderOptions::default()
-        };
+        let o = RenderOptions { accel: Some(accel), resolution: Some((80, 50)), ..RenderOptions::default() };
         scene.render(&o, &|| {}).unwrap().film
     };
-    assert_eq!(
-        render(AccelKind::None).pixels(),
-        render(AccelKind::Bvh).pixels()
-    );
+    assert_eq!(render(AccelKind::None).pixels(), render(AccelKind::Bvh).pixels());
 }
 
 /// Every course scene renders at a small size, without error, and not as a flat image.
@@ -208,26 +134,13 @@ fn every_course_scene_renders() {
         let (scene, _) = p3f::load(&path, &Default::default()).unwrap();
         let options = RenderOptions {
             resolution: Some((48, 36)),
-            env_dirs: vec![
-                path.parent().unwrap().to_path_buf(),
-                path.parent().unwrap().join(".."),
-            ],
+            env_dirs: vec![path.parent().unwrap().to_path_buf(), path.parent().unwrap().join("..")],
             ..RenderOptions::default()
         };
-        let out = scene
-            .render(&options, &|| {})
-            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let out = scene.render(&options, &|| {}).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let first = out.film.pixels()[0];
-        assert!(
-            out.film.pixels().iter().any(|p| *p != first),
-            "{} rendered a constant image",
-            path.display()
-        );
-        assert!(
-            out.film.pixels().iter().all(|p| p.is_finite()),
-            "{}: NaN or infinite pixel",
-            path.display()
-        );
+        assert!(out.film.pixels().iter().any(|p| *p != first), "{} rendered a constant image", path.display());
+        assert!(out.film.pixels().iter().all(|p| p.is_finite()), "{}: NaN or infinite pixel", path.display());
         count += 1;
     }
     assert_eq!(count, 12);
@@ -238,20 +151,10 @@ fn every_course_scene_renders() {
 fn balls_low_matches_the_course_reference() {
     let Some(shared) = shared() else { return };
     let (scene, _) = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap();
-    let reference = image::open(shared.join("refimages/balls_low.png"))
-        .unwrap()
-        .into_rgb8();
-    let ref_values: Vec<f32> = reference
-        .as_raw()
-        .iter()
-        .map(|&v| v as f32 / 255.0)
-        .collect();
+    let reference = image::open(shared.join("refimages/balls_low.png")).unwrap().into_rgb8();
+    let ref_values: Vec<f32> = reference.as_raw().iter().map(|&v| v as f32 / 255.0).collect();
     let error = |specular_scale| {
-        let options = RenderOptions {
-            use_env: false,
-            specular_scale,
-            ..RenderOptions::default()
-        };
+        let options = RenderOptions { use_env: false, specular_scale, ..RenderOptions::default() };
         let film = scene.render(&options, &|| {}).unwrap().film;
         assert_eq!((film.width(), film.height()), reference.dimensions());
         let ours: Vec<f32> = film.to_rgb8().iter().map(|&v| v as f32 / 255.0).collect();

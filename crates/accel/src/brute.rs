@@ -27,10 +27,7 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
         for (i, p) in self.prims.iter().enumerate() {
             if let Some(hit) = p.intersect(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                best = Some(PrimitiveHit {
-                    hit,
-                    primitive: i as u32,
-                });
+                best = Some(PrimitiveHit { hit, primitive: i as u32 });
             }
         }
         best
@@ -41,10 +38,6 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
     }
 
     fn bounds(&self) -> Aabb {
-        self.prims
-            .iter()
-            .map(Intersect::bounds)
-            .filter(Aabb::is_finite)
-            .fold(Aabb::EMPTY, Aabb::union)
+        self.prims.iter().map(Intersect::bounds).filter(Aabb::is_finite).fold(Aabb::EMPTY, Aabb::union)
     }
 }

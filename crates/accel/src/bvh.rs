@@ -66,11 +66,7 @@ impl<P: Intersect + Clone> Bvh<P> {
         for (i, p) in prims.iter().enumerate() {
             let b = p.bounds_over(shutter);
             if b.is_finite() && !b.is_empty() {
-                items.push(BuildItem {
-                    bounds: b,
-                    centroid: b.centroid(),
-                    index: i as u32,
-                });
+                items.push(BuildItem { bounds: b, centroid: b.centroid(), index: i as u32 });
             } else if b.is_finite() {
                 // Empty bounds: nothing can be hit.
             } else {
@@ -84,13 +80,7 @@ impl<P: Intersect + Clone> Bvh<P> {
         let bounds = nodes.first().map_or(Aabb::EMPTY, Node::aabb);
         let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
         let prims_ordered = ids.iter().map(|&i| prims[i as usize].clone()).collect();
-        Self {
-            prims: prims_ordered,
-            ids,
-            unbounded,
-            nodes,
-            bounds,
-        }
+        Self { prims: prims_ordered, ids, unbounded, nodes, bounds }
     }
 
     /// Number of nodes in the tree.
@@ -116,9 +106,7 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
     if n <= 1 {
         return me;
     }
-    let cb = items
-        .iter()
-        .fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
+    let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
     let axis = cb.longest_axis();
     let extent = cb.diagonal()[axis];
     let mid = if extent <= 0.0 {
@@ -128,18 +116,12 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
         }
         n / 2
     } else {
-        let sah = if depth < MEDIAN_DEPTH {
-            sah_split(items, &bounds, &cb, axis, extent)
-        } else {
-            None
-        };
+        let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, axis, extent) } else { None };
         match sah {
             Some(mid) => mid,
             None if n <= MAX_LEAF => return me,
             None => {
-                items.select_nth_unstable_by(n / 2, |a, b| {
-                    a.centroid[axis].total_cmp(&b.centroid[axis])
-                });
+                items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
                 n / 2
             }
         }
@@ -155,13 +137,7 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
 }
 
 /// Partitions `items` at the cheapest SAH bin boundary on `axis`; `None` if a leaf is cheaper.
-fn sah_split(
-    items: &mut [BuildItem],
-    bounds: &Aabb,
-    cb: &Aabb,
-    axis: usize,
-    extent: f32,
-) -> Option<usize> {
+fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, axis: usize, extent: f32) -> Option<usize> {
     let n = items.len();
     let lo = cb.min[axis];
     let scale = BINS as f32 / extent;
@@ -220,10 +196,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         for (p, id) in &self.unbounded {
             if let Some(hit) = p.intersect(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                best = Some(PrimitiveHit {
-                    hit,
-                    primitive: *id,
-                });
+                best = Some(PrimitiveHit { hit, primitive: *id });
             }
         }
         if self.nodes.is_empty() {
@@ -236,20 +209,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         let mut idx = 0usize;
         loop {
             let node = &self.nodes[idx];
-            if node
-                .aabb()
-                .hit_range(ray, inv, t_range.min, t_range.max)
-                .is_some()
-            {
+            if node.aabb().hit_range(ray, inv, t_range.min, t_range.max).is_some() {
                 if node.count > 0 {
                     let start = node.offset as usize;
                     for i in start..start + node.count as usize {
                         if let Some(hit) = self.prims[i].intersect(ray, t_range) {
                             t_range = t_range.with_max(hit.t);
-                            best = Some(PrimitiveHit {
-                                hit,
-                                primitive: self.ids[i],
-                            });
+                            best = Some(PrimitiveHit { hit, primitive: self.ids[i] });
                         }
                     }
                 } else {
@@ -290,10 +256,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             if node.aabb().hit_range(ray, inv, 0.0, t_max).is_some() {
                 if node.count > 0 {
                     let start = node.offset as usize;
-                    if self.prims[start..start + node.count as usize]
-                        .iter()
-                        .any(|p| p.occluded(ray, t_max))
-                    {
+                    if self.prims[start..start + node.count as usize].iter().any(|p| p.occluded(ray, t_max)) {
                         return true;
                     }
                 } else {

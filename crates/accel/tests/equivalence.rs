@@ -17,19 +17,14 @@ fn point(rng: &mut Pcg32, scale: f32) -> Vec3A {
 fn random_scene(rng: &mut Pcg32, n: usize) -> Vec<Primitive> {
     (0..n)
         .map(|i| match i % 5 {
-            0 => Primitive::Sphere(Sphere {
-                center: point(rng, 10.0),
-                radius: 0.1 + uniform(rng),
-            }),
+            0 => Primitive::Sphere(Sphere { center: point(rng, 10.0), radius: 0.1 + uniform(rng) }),
             1 => {
                 let c = point(rng, 10.0);
                 Primitive::Triangle(Triangle::new(c, c + point(rng, 1.5), c + point(rng, 1.5)))
             }
             2 => {
                 let c = point(rng, 10.0);
-                Primitive::Box(AaBox {
-                    bounds: Aabb::new(c, c + point(rng, 1.0).abs() + Vec3A::splat(0.01)),
-                })
+                Primitive::Box(AaBox { bounds: Aabb::new(c, c + point(rng, 1.0).abs() + Vec3A::splat(0.01)) })
             }
             3 => {
                 let c = point(rng, 10.0);
@@ -41,11 +36,7 @@ fn random_scene(rng: &mut Pcg32, n: usize) -> Vec<Primitive> {
                     time1: 1.0,
                 })
             }
-            _ => Primitive::Triangle(Triangle::new(
-                point(rng, 10.0),
-                point(rng, 10.0),
-                point(rng, 10.0),
-            )),
+            _ => Primitive::Triangle(Triangle::new(point(rng, 10.0), point(rng, 10.0), point(rng, 10.0))),
         })
         .collect()
 }
@@ -56,10 +47,7 @@ fn bvh_matches_brute_force_on_random_scenes() {
     for (scene_index, n) in [1usize, 2, 7, 40, 300, 2000].into_iter().enumerate() {
         let mut prims = random_scene(&mut rng, n);
         if scene_index % 2 == 0 {
-            prims.push(Primitive::Plane(Plane {
-                point: Vec3A::new(0.0, -12.0, 0.0),
-                normal: Vec3A::Y,
-            }));
+            prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -12.0, 0.0), normal: Vec3A::Y }));
         }
         let brute = BruteForce::new(prims.clone());
         let bvh = Bvh::new(prims, Interval::new(0.0, 1.0));
@@ -80,11 +68,7 @@ fn bvh_matches_brute_force_on_random_scenes() {
                 _ => panic!("scene of {n}: brute {a:?} vs bvh {b:?} for {ray:?}"),
             }
             let t_max = uniform(&mut rng) * 30.0;
-            assert_eq!(
-                brute.occluded(&ray, t_max),
-                bvh.occluded(&ray, t_max),
-                "occlusion, scene {n}"
-            );
+            assert_eq!(brute.occluded(&ray, t_max), bvh.occluded(&ray, t_max), "occlusion, scene {n}");
         }
         assert!(hits > 0, "the rays must hit something in scene {n}");
     }
@@ -93,17 +77,9 @@ fn bvh_matches_brute_force_on_random_scenes() {
 #[test]
 fn bvh_handles_many_coincident_primitives() {
     // Identical centroids cannot be split by position; the build must still terminate and be correct.
-    let s = Primitive::Sphere(Sphere {
-        center: Vec3A::ZERO,
-        radius: 1.0,
-    });
+    let s = Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 });
     let bvh = Bvh::new(vec![s; 1000], Interval::new(0.0, 0.0));
-    let hit = bvh
-        .closest_hit(
-            &Ray::new(Vec3A::new(0.0, 0.0, 5.0), -Vec3A::Z),
-            Interval::POSITIVE,
-        )
-        .unwrap();
+    let hit = bvh.closest_hit(&Ray::new(Vec3A::new(0.0, 0.0, 5.0), -Vec3A::Z), Interval::POSITIVE).unwrap();
     assert!((hit.hit.t - 4.0).abs() < 1e-5);
     assert!(bvh.node_count() > 1);
 }

@@ -1,5 +1,5 @@
-//! Cameras for raylume: the course's [`Pinhole`] camera and the [`ThinLens`] camera (depth of field),
-//! behind the [`Camera`] trait, both built from a [`View`].
+//! Cameras for raylume: the course's [`Pinhole`] camera, the [`ThinLens`] camera (depth of field) and
+//! the [`MotionBlur`] wrapper (a shutter interval), behind the [`Camera`] trait, built from a [`View`].
 //!
 //! ```
 //! use raylume_camera::{Camera, CameraSample, Pinhole, View};
@@ -32,16 +32,20 @@ impl CameraSample {
     /// A sample at a film position, the lens centre and the shutter's opening.
     #[inline]
     pub fn at_film(film: Vec2) -> Self {
-        Self {
-            film,
-            lens: Vec2::splat(0.5),
-            time: 0.0,
-        }
+        Self { film, lens: Vec2::splat(0.5), time: 0.0 }
     }
 }
 
 /// Makes camera rays.
+///
+/// The associated constants tell the render loop which sample dimensions the camera reads, so a
+/// camera without a lens or a shutter costs nothing for them: the loop does not even draw them.
 pub trait Camera: Sync + Send {
+    /// Whether [`CameraSample::lens`] is read (thin lens).
+    const USES_LENS: bool = false;
+    /// Whether [`CameraSample::time`] is read (motion blur).
+    const USES_TIME: bool = false;
+
     /// The ray for a sample.
     fn generate_ray(&self, sample: &CameraSample) -> Ray;
 
@@ -122,25 +126,23 @@ impl Frame {
     }
 }
 
-/// The course's pinhole camera.
+/// The course's pinhole camera. Its rays sample one instant (time 0 unless set with
+/// [`Pinhole::at_time`]); wrap it in [`MotionBlur`] to sample a shutter interval.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pinhole {
     frame: Frame,
-    shutter: Interval,
+    time: f32,
 }
 
 impl Pinhole {
-    /// A pinhole camera for `view` with the shutter closed at time 0.
+    /// A pinhole camera for `view`, at time 0.
     pub fn new(view: &View) -> Self {
-        Self {
-            frame: Frame::new(view),
-            shutter: Interval::new(0.0, 0.0),
-        }
+        Self { frame: Frame::new(view), time: 0.0 }
     }
 
-    /// The same camera with a shutter interval (for motion blur).
-    pub fn with_shutter(mut self, shutter: Interval) -> Self {
-        self.shutter = shutter;
+    /// The same camera at another instant.
+    pub fn at_time(mut self, time: f32) -> Self {
+        self.time = time;
         self
     }
 }
@@ -148,12 +150,7 @@ impl Pinhole {
 impl Camera for Pinhole {
     #[inline]
     fn generate_ray(&self, sample: &CameraSample) -> Ray {
-        let time = self.shutter.min + sample.time * (self.shutter.max - self.shutter.min);
-        Ray::with_time(
-            self.frame.from,
-            self.frame.direction(sample.film).normalize(),
-            time,
-        )
+        Ray::with_time(self.frame.from, self.frame.direction(sample.film).normalize(), self.time)
     }
 
     fn resolution(&self) -> (u32, u32) {
@@ -172,7 +169,7 @@ pub struct ThinLens {
     frame: Frame,
     lens_radius: f32,
     focal_distance: f32,
-    shutter: Interval,
+    time: f32,
 }
 
 impl ThinLens {
@@ -184,18 +181,30 @@ impl ThinLens {
             lens_radius: view.aperture * frame.w / view.width as f32,
             focal_distance: view.focal * frame.d,
             frame,
-            shutter: Interval::new(0.0, 0.0),
+            time: 0.0,
         }
     }
 
-    /// The same camera with a shutter interval (for motion blur).
-    pub fn with_shutter(mut self, shutter: Interval) -> Self {
-        self.shutter = shutter;
+    /// The same camera at another instant.
+    pub fn at_time(mut self, time: f32) -> Self {
+        self.time = time;
         self
+    }
+
+    /// The lens radius in world units.
+    pub fn lens_radius(&self) -> f32 {
+        self.lens_radius
+    }
+
+    /// The distance from the eye to the plane in focus.
+    pub fn focal_distance(&self) -> f32 {
+        self.focal_distance
     }
 }
 
 impl Camera for ThinLens {
+    const USES_LENS: bool = true;
+
     #[inline]
     fn generate_ray(&self, sample: &CameraSample) -> Ray {
         let f = &self.frame;
@@ -204,8 +213,7 @@ impl Camera for ThinLens {
         let focus = f.from + centre * (self.focal_distance / centre.dot(-f.n));
         let l = concentric_disk(sample.lens) * self.lens_radius;
         let origin = f.from + f.u * l.x + f.v * l.y;
-        let time = self.shutter.min + sample.time * (self.shutter.max - self.shutter.min);
-        Ray::with_time(origin, (focus - origin).normalize(), time)
+        Ray::with_time(origin, (focus - origin).normalize(), self.time)
     }
 
     fn resolution(&self) -> (u32, u32) {
@@ -214,5 +222,50 @@ impl Camera for ThinLens {
 
     fn t_min(&self) -> f32 {
         self.frame.hither
+    }
+}
+
+/// Motion blur: wraps a camera so each ray samples an instant of the shutter interval,
+/// `t0 + time * (t1 - t0)` for the sample's `time` in `[0, 1)`.
+///
+/// ```
+/// use raylume_camera::{Camera, CameraSample, MotionBlur, Pinhole, View};
+/// use raylume_geometry::{Interval, Vec2, Vec3A};
+/// let view = View { from: Vec3A::Z, at: Vec3A::ZERO, up: Vec3A::Y, angle_deg: 45.0, hither: 0.0,
+///     width: 8, height: 8, aperture: 0.0, focal: 1.0 };
+/// let cam = MotionBlur::new(Pinhole::new(&view), Interval::new(1.0, 3.0));
+/// let sample = CameraSample { film: Vec2::splat(4.0), lens: Vec2::ZERO, time: 0.25 };
+/// assert_eq!(cam.generate_ray(&sample).time, 1.5);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionBlur<C> {
+    camera: C,
+    shutter: Interval,
+}
+
+impl<C: Camera> MotionBlur<C> {
+    /// `camera` with its shutter open over `shutter`.
+    pub fn new(camera: C, shutter: Interval) -> Self {
+        Self { camera, shutter }
+    }
+}
+
+impl<C: Camera> Camera for MotionBlur<C> {
+    const USES_LENS: bool = C::USES_LENS;
+    const USES_TIME: bool = true;
+
+    #[inline]
+    fn generate_ray(&self, sample: &CameraSample) -> Ray {
+        let mut ray = self.camera.generate_ray(sample);
+        ray.time = self.shutter.min + sample.time * (self.shutter.max - self.shutter.min);
+        ray
+    }
+
+    fn resolution(&self) -> (u32, u32) {
+        self.camera.resolution()
+    }
+
+    fn t_min(&self) -> f32 {
+        self.camera.t_min()
     }
 }

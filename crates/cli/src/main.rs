@@ -14,11 +14,7 @@ use raylume_material::FresnelMode;
 use raylume_scene::{DEFAULT_SCENE, RenderOptions, Scene, p3f};
 
 #[derive(Parser)]
-#[command(
-    name = "raylume",
-    version,
-    about = "raylume: a Whitted and distribution ray tracer"
-)]
+#[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -80,6 +76,27 @@ struct RenderArgs {
     /// Scale of the specular highlight (1: the plain model).
     #[arg(long, default_value_t = 1.0)]
     specular_scale: f32,
+    /// Soft shadows: make every light a square area light of this side (0: point lights).
+    #[arg(long, value_name = "SIZE")]
+    area_light: Option<f32>,
+    /// Side of the grid of point lights standing for an area light without antialiasing.
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    light_grid: u32,
+    /// Fuzzy reflections: the roughness of every reflective material, in [0, 1].
+    #[arg(long)]
+    roughness: Option<f32>,
+    /// Depth of field: the lens diameter in pixel sizes (0: pinhole).
+    #[arg(long)]
+    aperture: Option<f32>,
+    /// Depth of field: the focal distance as a ratio of the view-plane distance.
+    #[arg(long)]
+    focal: Option<f32>,
+    /// Motion blur: the shutter interval.
+    #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
+    shutter: Option<Vec<f32>>,
+    /// Render only the pixels in [X0, X1) x [Y0, Y1) (row 0 at the top); they equal the full image's.
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
+    crop: Option<Vec<u32>>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -96,10 +113,7 @@ struct Failure {
 }
 
 fn bad_input(message: impl ToString) -> Failure {
-    Failure {
-        code: 2,
-        message: message.to_string(),
-    }
+    Failure { code: 2, message: message.to_string() }
 }
 
 fn main() -> ExitCode {
@@ -118,25 +132,18 @@ fn main() -> ExitCode {
 }
 
 fn render(args: RenderArgs) -> Result<(), Failure> {
-    let options = p3f::LoadOptions {
-        strict: args.strict,
-    };
+    let options = p3f::LoadOptions { strict: args.strict };
     let (scene, warnings, mut env_dirs) = match &args.scene {
         Some(path) => {
             let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
             let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-            let dir = if dir.as_os_str().is_empty() {
-                PathBuf::from(".")
-            } else {
-                dir
-            };
+            let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
             let mut dirs = vec![dir.clone()];
             dirs.push(dir.join(".."));
             (scene, warnings, dirs)
         }
         None => {
-            let (scene, warnings) =
-                p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
+            let (scene, warnings) = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
             (scene, warnings, vec![PathBuf::from(".")])
         }
     };
@@ -149,24 +156,21 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         max_depth: args.depth,
         spp,
         seed: args.seed,
-        fresnel: if args.schlick {
-            FresnelMode::Schlick
-        } else {
-            FresnelMode::Exact
-        },
+        fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
+        light_grid: args.light_grid.clamp(1, 64),
+        crop: args.crop.as_ref().map(|c| [c[0], c[1], c[2], c[3]]),
     };
+    if let Some([x0, y0, x1, y1]) = settings.crop {
+        if x0 >= x1 || y0 >= y1 {
+            return Err(bad_input(format!("--crop {x0} {y0} {x1} {y1}: expected X0 < X1 and Y0 < Y1")));
+        }
+    }
     let n = settings.strata();
     if spp > 1 && n * n != spp {
-        eprintln!(
-            "raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})",
-            n * n
-        );
+        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
     }
     if !args.specular_scale.is_finite() || args.specular_scale < 0.0 {
-        return Err(bad_input(format!(
-            "--specular-scale {}: expected a finite number >= 0",
-            args.specular_scale
-        )));
+        return Err(bad_input(format!("--specular-scale {}: expected a finite number >= 0", args.specular_scale)));
     }
     let accel = args.accel.map(|a| match a {
         AccelArg::None => AccelKind::None,
@@ -180,14 +184,15 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         env_dirs,
         use_env: !args.no_env,
         specular_scale: args.specular_scale,
+        area_light_size: args.area_light,
+        roughness: args.roughness,
+        aperture: args.aperture,
+        focal: args.focal,
+        shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
     };
+    let features = scene.features(&render_options).map_err(bad_input)?;
     // Check the output's format before spending time on the render.
-    let ext = args
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if !matches!(ext.as_str(), "png" | "exr" | "pfm") {
         return Err(bad_input(format!(
             "{}: unknown image format '{ext}' (expected .png, .exr or .pfm)",
@@ -197,20 +202,14 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
-        .map_err(|e| Failure {
-            code: 1,
-            message: e.to_string(),
-        })?;
-    let (w, h) = render_options
-        .resolution
-        .unwrap_or((scene.view.width, scene.view.height));
+        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let h = render_options.resolution.map_or(scene.view.height, |r| r.1);
+    let rows = settings.crop.map_or(h, |c| c[3].min(h).saturating_sub(c[1]));
     let bar = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(h as u64);
+        let bar = ProgressBar::new(rows as u64);
         bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)",
-            )
-            .expect("valid template"),
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
+                .expect("valid template"),
         );
         bar
     } else {
@@ -218,14 +217,12 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     };
     let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
     bar.finish_and_clear();
-    out.film.write(&args.output).map_err(|e| Failure {
-        code: 1,
-        message: e.to_string(),
-    })?;
+    out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     let s = out.stats;
     let total = out.build_seconds + out.render_seconds;
+    let (w, h) = (out.film.width(), out.film.height());
     eprintln!(
-        "raylume: wrote {} ({w}x{h}, {} spp, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
+        "raylume: wrote {} ({w}x{h}, {} spp, effects: {features}, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
         args.output.display(),
         n * n,
         out.accel,
@@ -255,11 +252,7 @@ fn scene_render(
 }
 
 fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
-    let load = |p: &Path| {
-        image::open(p)
-            .map(|i| i.into_rgb8())
-            .map_err(|e| bad_input(format!("{}: {e}", p.display())))
-    };
+    let load = |p: &Path| image::open(p).map(|i| i.into_rgb8()).map_err(|e| bad_input(format!("{}: {e}", p.display())));
     let (ia, ib) = (load(a)?, load(b)?);
     if ia.dimensions() != ib.dimensions() {
         return Err(bad_input(format!(
@@ -270,12 +263,7 @@ fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
             ib.dimensions()
         )));
     }
-    let to_f = |i: &image::RgbImage| {
-        i.as_raw()
-            .iter()
-            .map(|&v| v as f32 / 255.0)
-            .collect::<Vec<_>>()
-    };
+    let to_f = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>();
     let rmse = raylume_integrator::metrics::rmse(&to_f(&ia), &to_f(&ib)).unwrap_or(0.0);
     println!("rmse {rmse:.6} ({:.3} of 255)", rmse * 255.0);
     Ok(())

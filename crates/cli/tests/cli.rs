@@ -20,17 +20,11 @@ fn default_scene_renders_to_png_exr_and_pfm() {
     for ext in ["png", "exr", "pfm"] {
         let out = dir.join(format!("out.{ext}"));
         let run = raylume()
-            .args([
-                "render", "--width", "40", "--height", "25", "--spp", "1", "-o",
-            ])
+            .args(["render", "--width", "40", "--height", "25", "--spp", "1", "-o"])
             .arg(&out)
             .output()
             .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert!(stderr.contains("rays (camera 1000, shadow"), "{stderr}");
         let bytes = std::fs::read(&out).unwrap();
@@ -57,35 +51,18 @@ fn bad_scene_exits_2_with_position_and_writes_nothing() {
     let scene = dir.join("bad.p3f");
     std::fs::write(&scene, "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle forty\n").unwrap();
     let out = dir.join("out.png");
-    let run = raylume()
-        .arg("render")
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = raylume().arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap();
     assert_eq!(run.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(
-        stderr.contains("bad.p3f:5:7: expected a number (angle in degrees), found 'forty'"),
-        "{stderr}"
-    );
+    assert!(stderr.contains("bad.p3f:5:7: expected a number (angle in degrees), found 'forty'"), "{stderr}");
     assert!(!out.exists());
-    assert_eq!(
-        std::fs::read_dir(&dir).unwrap().count(),
-        1,
-        "only the scene file is there"
-    );
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "only the scene file is there");
 }
 
 #[test]
 fn missing_file_absurd_size_and_unknown_format_exit_2() {
     let dir = temp_dir("input");
-    let run = raylume()
-        .args(["render", "/nonexistent/x.p3f", "-o"])
-        .arg(dir.join("a.png"))
-        .output()
-        .unwrap();
+    let run = raylume().args(["render", "/nonexistent/x.p3f", "-o"]).arg(dir.join("a.png")).output().unwrap();
     assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("/nonexistent/x.p3f"));
     let run = raylume()
@@ -95,11 +72,7 @@ fn missing_file_absurd_size_and_unknown_format_exit_2() {
         .unwrap();
     assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("resolution 1000000 x 1000000"));
-    let run = raylume()
-        .args(["render", "-o"])
-        .arg(dir.join("c.bmp"))
-        .output()
-        .unwrap();
+    let run = raylume().args(["render", "-o"]).arg(dir.join("c.bmp")).output().unwrap();
     assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("unknown image format 'bmp'"));
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
@@ -109,11 +82,7 @@ fn missing_file_absurd_size_and_unknown_format_exit_2() {
 fn unwritable_output_exits_1_and_leaves_nothing() {
     let dir = temp_dir("unwritable");
     let out = dir.join("no/such/folder/out.png");
-    let run = raylume()
-        .args(["render", "--width", "8", "--height", "8", "-o"])
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = raylume().args(["render", "--width", "8", "--height", "8", "-o"]).arg(&out).output().unwrap();
     assert_eq!(run.status.code(), Some(1));
     assert!(!out.exists());
 }
@@ -124,24 +93,11 @@ fn strict_turns_unknown_tags_into_errors() {
     let scene = dir.join("s.p3f");
     std::fs::write(&scene, "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 8 8\nf 1 1 1 1 1 1 1 0 1 0 1\nfoo 1 2\ns 0 0 0 1\n").unwrap();
     let out = dir.join("o.png");
-    let run = raylume()
-        .arg("render")
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = raylume().arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap();
     assert!(run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("s.p3f:3:1: warning: unknown tag 'foo'"));
     std::fs::remove_file(&out).unwrap();
-    let run = raylume()
-        .arg("render")
-        .arg(&scene)
-        .arg("--strict")
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = raylume().arg("render").arg(&scene).arg("--strict").arg("-o").arg(&out).output().unwrap();
     assert_eq!(run.status.code(), Some(2));
     assert!(!out.exists());
 }
@@ -150,18 +106,13 @@ fn strict_turns_unknown_tags_into_errors() {
 fn non_square_spp_is_rounded_up_and_said() {
     let dir = temp_dir("spp");
     let run = raylume()
-        .args([
-            "render", "--width", "8", "--height", "8", "--spp", "5", "-o",
-        ])
+        .args(["render", "--width", "8", "--height", "8", "--spp", "5", "-o"])
         .arg(dir.join("o.png"))
         .output()
         .unwrap();
     assert!(run.status.success());
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(
-        stderr.contains("rendering 9 samples per pixel (3 x 3)"),
-        "{stderr}"
-    );
+    assert!(stderr.contains("rendering 9 samples per pixel (3 x 3)"), "{stderr}");
     assert!(stderr.contains("camera 576"), "{stderr}");
 }
 
@@ -172,9 +123,7 @@ fn compare_reports_rmse() {
     for (p, seed) in [(&a, "1"), (&b, "1")] {
         assert!(
             raylume()
-                .args([
-                    "render", "--width", "16", "--height", "10", "--seed", seed, "-o"
-                ])
+                .args(["render", "--width", "16", "--height", "10", "--seed", seed, "-o"])
                 .arg(p)
                 .status()
                 .unwrap()
@@ -182,8 +131,5 @@ fn compare_reports_rmse() {
         );
     }
     let run = raylume().arg("compare").arg(&a).arg(&b).output().unwrap();
-    assert_eq!(
-        String::from_utf8_lossy(&run.stdout).trim(),
-        "rmse 0.000000 (0.000 of 255)"
-    );
+    assert_eq!(String::from_utf8_lossy(&run.stdout).trim(), "rmse 0.000000 (0.000 of 255)");
 }

@@ -26,10 +26,7 @@ impl Default for Aabb {
 
 impl Aabb {
     /// The box that contains nothing; the identity of [`Aabb::union`].
-    pub const EMPTY: Aabb = Aabb {
-        min: Vec3A::INFINITY,
-        max: Vec3A::NEG_INFINITY,
-    };
+    pub const EMPTY: Aabb = Aabb { min: Vec3A::INFINITY, max: Vec3A::NEG_INFINITY };
 
     /// The box with the given corners.
     #[inline]
@@ -51,19 +48,13 @@ impl Aabb {
     /// The smallest box containing both boxes.
     #[inline]
     pub fn union(self, other: Aabb) -> Self {
-        Self {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
+        Self { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
     /// The smallest box containing this box and `p`.
     #[inline]
     pub fn union_point(self, p: Vec3A) -> Self {
-        Self {
-            min: self.min.min(p),
-            max: self.max.max(p),
-        }
+        Self { min: self.min.min(p), max: self.max.max(p) }
     }
 
     /// Whether the box contains nothing.
@@ -126,13 +117,7 @@ impl Aabb {
     /// `0 * inf` NaNs (a ray lying in a slab's plane) never make a hit disappear, and `t_max`
     /// is widened by a few ULPs (pbrt's `gamma(3)` bound) so the test is conservative.
     #[inline]
-    pub fn hit_range(
-        &self,
-        ray: &Ray,
-        inv_dir: Vec3A,
-        t_min: f32,
-        t_max: f32,
-    ) -> Option<(f32, f32)> {
+    pub fn hit_range(&self, ray: &Ray, inv_dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
         let t_lo = (self.min - ray.origin) * inv_dir;
         let t_hi = (self.max - ray.origin) * inv_dir;
         // min/max of glam map NaN to the other operand, so NaN slabs (0 * inf) are ignored.

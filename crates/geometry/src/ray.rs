@@ -18,11 +18,7 @@ impl Ray {
     /// A ray at time 0.
     #[inline]
     pub fn new(origin: Vec3A, dir: Vec3A) -> Self {
-        Self {
-            origin,
-            dir,
-            time: 0.0,
-        }
+        Self { origin, dir, time: 0.0 }
     }
 
     /// A ray at the given time.
@@ -55,10 +51,7 @@ pub struct Interval {
 
 impl Interval {
     /// Every parameter from 0 to infinity.
-    pub const POSITIVE: Interval = Interval {
-        min: 0.0,
-        max: f32::INFINITY,
-    };
+    pub const POSITIVE: Interval = Interval { min: 0.0, max: f32::INFINITY };
 
     /// The interval `[min, max]`.
     #[inline]

@@ -42,10 +42,7 @@ impl MovingSphere {
     /// The sphere at time `t`.
     #[inline]
     pub fn at(&self, t: f32) -> Sphere {
-        Sphere {
-            center: self.center_at(t),
-            radius: self.radius,
-        }
+        Sphere { center: self.center_at(t), radius: self.radius }
     }
 }
 
@@ -91,10 +88,7 @@ impl Plane {
     pub fn from_points(p0: Vec3A, p1: Vec3A, p2: Vec3A) -> Option<Self> {
         let n = (p1 - p0).cross(p2 - p0);
         let len = n.length();
-        (len > 0.0 && len.is_finite()).then(|| Self {
-            point: p0,
-            normal: n / len,
-        })
+        (len > 0.0 && len.is_finite()).then(|| Self { point: p0, normal: n / len })
     }
 }
 
@@ -124,13 +118,7 @@ impl Cone {
         let axis = (self.apex - self.base).normalize_or_zero();
         // Extent of a disc of radius r with normal `axis` along each world axis: r * sqrt(1 - a_i^2).
         let e = (Vec3A::ONE - axis * axis).max(Vec3A::ZERO).powf(0.5);
-        let b = Aabb::new(
-            self.base - e * self.base_radius,
-            self.base + e * self.base_radius,
-        );
-        b.union(Aabb::new(
-            self.apex - e * self.apex_radius,
-            self.apex + e * self.apex_radius,
-        ))
+        let b = Aabb::new(self.base - e * self.base_radius, self.base + e * self.base_radius);
+        b.union(Aabb::new(self.apex - e * self.apex_radius, self.apex + e * self.apex_radius))
     }
 }

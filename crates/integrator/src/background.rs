@@ -65,17 +65,9 @@ impl Cubemap {
     pub fn lookup(&self, dir: Vec3A) -> Vec3 {
         let a = dir.abs();
         let (face, sc, tc, m) = if a.x >= a.y && a.x >= a.z {
-            if dir.x >= 0.0 {
-                (1, dir.z, dir.y, a.x)
-            } else {
-                (0, -dir.z, dir.y, a.x)
-            }
+            if dir.x >= 0.0 { (1, dir.z, dir.y, a.x) } else { (0, -dir.z, dir.y, a.x) }
         } else if a.y >= a.z {
-            if dir.y >= 0.0 {
-                (2, -dir.x, -dir.z, a.y)
-            } else {
-                (3, -dir.x, dir.z, a.y)
-            }
+            if dir.y >= 0.0 { (2, -dir.x, -dir.z, a.y) } else { (3, -dir.x, dir.z, a.y) }
         } else if dir.z >= 0.0 {
             (4, -dir.x, dir.y, a.z)
         } else {

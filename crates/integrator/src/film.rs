@@ -51,16 +51,8 @@ enum Format {
 impl Film {
     /// A film from pixels in row order, top row first. Panics if the count is not `width * height`.
     pub fn from_pixels(width: u32, height: u32, pixels: Vec<Vec3>) -> Self {
-        assert_eq!(
-            pixels.len(),
-            width as usize * height as usize,
-            "pixel count does not match the size"
-        );
-        Self {
-            width,
-            height,
-            pixels,
-        }
+        assert_eq!(pixels.len(), width as usize * height as usize, "pixel count does not match the size");
+        Self { width, height, pixels }
     }
 
     /// Width in pixels.
@@ -96,72 +88,41 @@ impl Film {
     /// float). The data go to a temporary file beside `path` that is renamed over it at the end, so
     /// a failed or interrupted write never leaves a half-written image.
     pub fn write(&self, path: &Path) -> Result<(), OutputError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         let format = match ext.as_str() {
             "png" => Format::Png,
             "exr" => Format::Exr,
             "pfm" => Format::Pfm,
             _ => {
-                return Err(OutputError::UnknownFormat {
-                    path: path.to_owned(),
-                    ext,
-                });
+                return Err(OutputError::UnknownFormat { path: path.to_owned(), ext });
             }
         };
-        let io = |source| OutputError::Io {
-            path: path.to_owned(),
-            source,
-        };
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let io = |source| OutputError::Io { path: path.to_owned(), source };
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-        let result = self
-            .encode(&tmp, format)
-            .and_then(|()| std::fs::rename(&tmp, path).map_err(io));
+        let result = self.encode(&tmp, format).and_then(|()| std::fs::rename(&tmp, path).map_err(io));
         if result.is_err() {
             let _ = std::fs::remove_file(&tmp);
         }
         result.map_err(|e| match e {
-            OutputError::Io { source, .. } => OutputError::Io {
-                path: path.to_owned(),
-                source,
-            },
-            OutputError::Encode { source, .. } => OutputError::Encode {
-                path: path.to_owned(),
-                source,
-            },
+            OutputError::Io { source, .. } => OutputError::Io { path: path.to_owned(), source },
+            OutputError::Encode { source, .. } => OutputError::Encode { path: path.to_owned(), source },
             other => other,
         })
     }
 
     fn encode(&self, tmp: &Path, format: Format) -> Result<(), OutputError> {
-        let io = |source| OutputError::Io {
-            path: tmp.to_owned(),
-            source,
-        };
-        let enc = |source| OutputError::Encode {
-            path: tmp.to_owned(),
-            source,
-        };
+        let io = |source| OutputError::Io { path: tmp.to_owned(), source };
+        let enc = |source| OutputError::Encode { path: tmp.to_owned(), source };
         match format {
             Format::Png => {
-                let img = image::RgbImage::from_raw(self.width, self.height, self.to_rgb8())
-                    .expect("buffer size");
-                img.save_with_format(tmp, image::ImageFormat::Png)
-                    .map_err(enc)
+                let img = image::RgbImage::from_raw(self.width, self.height, self.to_rgb8()).expect("buffer size");
+                img.save_with_format(tmp, image::ImageFormat::Png).map_err(enc)
             }
             Format::Exr => {
                 let data = self.pixels.iter().flat_map(|c| c.to_array()).collect();
-                let img = image::Rgb32FImage::from_raw(self.width, self.height, data)
-                    .expect("buffer size");
-                img.save_with_format(tmp, image::ImageFormat::OpenExr)
-                    .map_err(enc)
+                let img = image::Rgb32FImage::from_raw(self.width, self.height, data).expect("buffer size");
+                img.save_with_format(tmp, image::ImageFormat::OpenExr).map_err(enc)
             }
             Format::Pfm => {
                 let file = std::fs::File::create(tmp).map_err(io)?;
@@ -175,10 +136,7 @@ impl Film {
                         }
                     }
                 }
-                out.into_inner()
-                    .map_err(|e| io(e.into_error()))?
-                    .sync_all()
-                    .map_err(io)
+                out.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)
             }
         }
     }

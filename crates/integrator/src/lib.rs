@@ -5,7 +5,7 @@
 //! use raylume_accel::BruteForce;
 //! use raylume_camera::{Pinhole, View};
 //! use raylume_geometry::{Sphere, Vec3, Vec3A};
-//! use raylume_integrator::{render, Background, PointLight, RenderSettings, Whitted, World};
+//! use raylume_integrator::{render, Background, Centre, Light, RenderSettings, Whitted, World};
 //! use raylume_intersect::Primitive;
 //! use raylume_material::Phong;
 //!
@@ -14,13 +14,14 @@
 //!     BruteForce::new(prims),
 //!     vec![Phong::default()],
 //!     vec![0],
-//!     vec![PointLight { position: Vec3A::new(0.0, 0.0, 10.0), color: Vec3::ONE }],
+//!     vec![Light::point(Vec3A::new(0.0, 0.0, 10.0), Vec3::ONE)],
 //!     Background::color(Vec3::ZERO),
 //! );
 //! let view = View { from: Vec3A::new(0.0, 0.0, 5.0), at: Vec3A::ZERO, up: Vec3A::Y,
 //!     angle_deg: 45.0, hither: 0.0, width: 16, height: 16, aperture: 0.0, focal: 1.0 };
 //! let settings = RenderSettings::default();
-//! let (film, stats) = render(&world, &Pinhole::new(&view), &Whitted::new(&settings), &settings, &|| {});
+//! let camera = Pinhole::new(&view);
+//! let (film, stats) = render(&world, &camera, &Centre::new(0), &Whitted::new(&settings), &settings, &|| {});
 //! assert_eq!(stats.camera, 256);
 //! assert!(film.pixel(8, 8).x > 0.9); // the lit centre of the sphere
 //! assert_eq!(film.pixel(0, 0), Vec3::ZERO); // the background
@@ -30,24 +31,36 @@ mod background;
 mod film;
 pub mod metrics;
 mod render;
+pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
 pub use film::{Film, OutputError};
 pub use render::{RayStats, RenderSettings, render};
-pub use whitted::Whitted;
+pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler};
+pub use whitted::{SoftShadows, Whitted};
 
 use raylume_accel::Accelerator;
 use raylume_geometry::{Ray, Vec3, Vec3A};
 use raylume_material::Material;
 
-/// A point light.
+/// A light: a point, or a square area light of side `size` in the world XY plane (the course's),
+/// centred on `position`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointLight {
-    /// Position.
+pub struct Light {
+    /// Position (the centre of an area light).
     pub position: Vec3A,
     /// Colour (and intensity).
     pub color: Vec3,
+    /// Side of the square; 0 for a point light.
+    pub size: f32,
+}
+
+impl Light {
+    /// A point light.
+    pub fn point(position: Vec3A, color: Vec3) -> Self {
+        Self { position, color, size: 0.0 }
+    }
 }
 
 /// Per-primitive shading data: which material, and optional vertex normals (p3f `pp` patches).
@@ -71,7 +84,7 @@ pub struct World<A, M> {
     /// Vertex normals of smooth triangles, referenced by [`Shading::normals`].
     pub vertex_normals: Vec<[Vec3A; 3]>,
     /// The point lights.
-    pub lights: Vec<PointLight>,
+    pub lights: Vec<Light>,
     /// What escaping rays return.
     pub background: Background,
 }
@@ -82,35 +95,24 @@ impl<A: Accelerator, M: Material> World<A, M> {
         accel: A,
         materials: Vec<M>,
         prim_material: Vec<u32>,
-        lights: Vec<PointLight>,
+        lights: Vec<Light>,
         background: Background,
     ) -> Self {
-        let shading = prim_material
-            .into_iter()
-            .map(|material| Shading {
-                material,
-                normals: u32::MAX,
-            })
-            .collect();
-        Self {
-            accel,
-            materials,
-            shading,
-            vertex_normals: Vec::new(),
-            lights,
-            background,
-        }
+        let shading = prim_material.into_iter().map(|material| Shading { material, normals: u32::MAX }).collect();
+        Self { accel, materials, shading, vertex_normals: Vec::new(), lights, background }
     }
 }
 
 /// Computes the light arriving along a camera ray.
 pub trait Integrator: Sync {
-    /// The colour seen along `ray` (a camera ray, whose hits are accepted from `t_min` on).
-    fn radiance<A: Accelerator, M: Material>(
+    /// The colour seen along `ray` (a camera ray, whose hits are accepted from `t_min` on), drawing
+    /// the sample's other dimensions (area lights, fuzzy reflections) from `sample`.
+    fn radiance<A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
         ray: &Ray,
         t_min: f32,
+        sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3;
 }

@@ -1,13 +1,12 @@
 use std::ops::AddAssign;
 
-use rand_core::Rng;
-use rand_pcg::Pcg32;
 use raylume_accel::Accelerator;
 use raylume_camera::{Camera, CameraSample};
 use raylume_geometry::{Vec2, Vec3};
 use raylume_material::{FresnelMode, Material};
 use rayon::prelude::*;
 
+use crate::sampler::{SampleSource, Sampler};
 use crate::{Film, Integrator, World};
 
 /// Settings of a render that do not belong to the scene.
@@ -18,31 +17,32 @@ pub struct RenderSettings {
     /// Samples per pixel: 0 or 1 is one ray through the pixel centre; more are jittered over an
     /// `n x n` grid with `n = ceil(sqrt(spp))`.
     pub spp: u32,
-    /// Seed of the random numbers (with the pixel, it decides every sample).
+    /// Seed of the random numbers (with the pixel and the sample index, it decides every sample).
     pub seed: u64,
     /// Fresnel equations or Schlick's approximation.
     pub fresnel: FresnelMode,
+    /// Side of the grid of point lights that stands for an area light when there is no
+    /// antialiasing (the course's 4: 16 shadow rays per area light).
+    pub light_grid: u32,
+    /// Render only this part of the image: `[x0, y0, x1, y1)` in pixels, row 0 at the top.
+    pub crop: Option<[u32; 4]>,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self {
-            max_depth: 4,
-            spp: 1,
-            seed: 0,
-            fresnel: FresnelMode::Exact,
-        }
+        Self { max_depth: 4, spp: 1, seed: 0, fresnel: FresnelMode::Exact, light_grid: 4, crop: None }
     }
 }
 
 impl RenderSettings {
     /// The side of the jittered grid of samples per pixel (1 for a single centre sample).
     pub fn strata(&self) -> u32 {
-        if self.spp <= 1 {
-            1
-        } else {
-            (self.spp as f64).sqrt().ceil() as u32
-        }
+        if self.spp <= 1 { 1 } else { (self.spp as f64).sqrt().ceil() as u32 }
+    }
+
+    /// Whether the render antialiases (more than one sample per pixel).
+    pub fn antialiasing(&self) -> bool {
+        self.strata() > 1
     }
 }
 
@@ -75,12 +75,18 @@ impl AddAssign for RayStats {
     }
 }
 
-/// Renders `world` through `camera` with `integrator`, in parallel over rows (on rayon's current
-/// pool). Each pixel's samples depend only on the seed and the pixel, so the image is bit-identical
-/// whatever the number of threads. `on_row` is called once per finished row (for progress bars).
-pub fn render<A, M, C, I>(
+/// Renders `world` through `camera` with `integrator`, taking each pixel's samples from `sampler`,
+/// in parallel over rows (on rayon's current pool). Each sample depends only on the seed, the pixel
+/// and its index, so the image is bit-identical whatever the number of threads, and a crop
+/// (`settings.crop`) holds exactly the full image's pixels. `on_row` is called once per finished
+/// row (for progress bars).
+///
+/// The lens and time dimensions are drawn only for cameras that use them ([`Camera::USES_LENS`],
+/// [`Camera::USES_TIME`]): a pinhole render does no lens or shutter work at all.
+pub fn render<A, M, C, S, I>(
     world: &World<A, M>,
     camera: &C,
+    sampler: &S,
     integrator: &I,
     settings: &RenderSettings,
     on_row: &(dyn Fn() + Sync),
@@ -89,43 +95,40 @@ where
     A: Accelerator,
     M: Material,
     C: Camera,
+    S: Sampler,
     I: Integrator,
 {
     let (w, h) = camera.resolution();
-    let n = settings.strata();
-    let inv = 1.0 / (n * n) as f32;
+    let [x0, y0, x1, y1] =
+        settings.crop.map_or([0, 0, w, h], |[x0, y0, x1, y1]| [x0.min(w), y0.min(h), x1.min(w), y1.min(h)]);
+    let (cw, ch) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+    let spp = sampler.samples_per_pixel();
+    let inv = 1.0 / spp as f32;
     let t_min = camera.t_min();
-    let mut pixels = vec![Vec3::ZERO; w as usize * h as usize];
+    let mut pixels = vec![Vec3::ZERO; cw as usize * ch as usize];
+    if cw == 0 || ch == 0 {
+        return (Film::from_pixels(cw, ch, pixels), RayStats::default());
+    }
     let stats = pixels
-        .par_chunks_mut(w as usize)
+        .par_chunks_mut(cw as usize)
         .enumerate()
         .map(|(row, out)| {
             let mut stats = RayStats::default();
             // Row 0 of the film is the top; the camera counts y from the bottom.
-            let y = h - 1 - row as u32;
-            for (x, px) in out.iter_mut().enumerate() {
-                let x = x as u32;
+            let y = h - 1 - (y0 + row as u32);
+            for (i, px) in out.iter_mut().enumerate() {
+                let x = x0 + i as u32;
                 let mut sum = Vec3::ZERO;
-                if n == 1 {
-                    let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                    let ray = camera.generate_ray(&CameraSample::at_film(film));
+                for index in 0..spp {
+                    let mut src = sampler.begin(x, y, index);
+                    let film = Vec2::new(x as f32, y as f32) + src.film();
+                    let lens = if C::USES_LENS { src.lens() } else { Vec2::splat(0.5) };
+                    let time = if C::USES_TIME { src.time() } else { 0.0 };
+                    let ray = camera.generate_ray(&CameraSample { film, lens, time });
                     stats.camera += 1;
-                    sum = integrator.radiance(world, &ray, t_min, &mut stats);
-                } else {
-                    let mut rng = pixel_rng(settings.seed, x, y, w);
-                    for p in 0..n {
-                        for q in 0..n {
-                            let jitter = Vec2::new(uniform(&mut rng), uniform(&mut rng));
-                            let film = Vec2::new(x as f32, y as f32)
-                                + (Vec2::new(p as f32, q as f32) + jitter) / n as f32;
-                            let ray = camera.generate_ray(&CameraSample::at_film(film));
-                            stats.camera += 1;
-                            sum += integrator.radiance(world, &ray, t_min, &mut stats);
-                        }
-                    }
-                    sum *= inv;
+                    sum += integrator.radiance(world, &ray, t_min, &mut src, &mut stats);
                 }
-                *px = sum;
+                *px = if spp == 1 { sum } else { sum * inv };
             }
             on_row();
             stats
@@ -134,24 +137,5 @@ where
             a += b;
             a
         });
-    (Film::from_pixels(w, h, pixels), stats)
-}
-
-/// A generator seeded by the render seed and the pixel only.
-fn pixel_rng(seed: u64, x: u32, y: u32, width: u32) -> Pcg32 {
-    let pixel = y as u64 * width as u64 + x as u64;
-    Pcg32::new(splitmix(seed ^ splitmix(pixel)), 0x0a02_bdbf_7bb3_c0a7)
-}
-
-fn splitmix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// A uniform float in `[0, 1)` with 24 random bits.
-#[inline]
-fn uniform(rng: &mut Pcg32) -> f32 {
-    (rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    (Film::from_pixels(cw, ch, pixels), stats)
 }

@@ -1,8 +1,6 @@
 //! One intersection routine per shape.
 
-use raylume_geometry::{
-    AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec2, Vec3A,
-};
+use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec2, Vec3A};
 
 use crate::{Hit, Intersect};
 
@@ -34,19 +32,11 @@ impl Intersect for Sphere {
         };
         let point = ray.at(t);
         let normal = (point - self.center) / self.radius;
-        Some(Hit {
-            t,
-            point,
-            normal,
-            uv: Vec2::ZERO,
-        })
+        Some(Hit { t, point, normal, uv: Vec2::ZERO })
     }
 
     fn bounds(&self) -> Aabb {
-        Aabb::new(
-            self.center - Vec3A::splat(self.radius),
-            self.center + Vec3A::splat(self.radius),
-        )
+        Aabb::new(self.center - Vec3A::splat(self.radius), self.center + Vec3A::splat(self.radius))
     }
 }
 
@@ -61,9 +51,7 @@ impl Intersect for MovingSphere {
     }
 
     fn bounds_over(&self, shutter: Interval) -> Aabb {
-        self.at(shutter.min)
-            .bounds()
-            .union(self.at(shutter.max).bounds())
+        self.at(shutter.min).bounds().union(self.at(shutter.max).bounds())
     }
 }
 
@@ -97,12 +85,7 @@ impl Intersect for Triangle {
         if normal == Vec3A::ZERO {
             return None;
         }
-        Some(Hit {
-            t,
-            point: ray.at(t),
-            normal,
-            uv: Vec2::new(b1, b2),
-        })
+        Some(Hit { t, point: ray.at(t), normal, uv: Vec2::new(b1, b2) })
     }
 
     fn bounds(&self) -> Aabb {
@@ -122,12 +105,7 @@ impl Intersect for Plane {
         if !t_range.contains(t) {
             return None;
         }
-        Some(Hit {
-            t,
-            point: ray.at(t),
-            normal: self.normal,
-            uv: Vec2::ZERO,
-        })
+        Some(Hit { t, point: ray.at(t), normal: self.normal, uv: Vec2::ZERO })
     }
 
     fn bounds(&self) -> Aabb {
@@ -140,9 +118,7 @@ impl Intersect for AaBox {
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         let inv = ray.dir.recip();
-        let (t0, t1) = self
-            .bounds
-            .hit_range(ray, inv, f32::NEG_INFINITY, f32::INFINITY)?;
+        let (t0, t1) = self.bounds.hit_range(ray, inv, f32::NEG_INFINITY, f32::INFINITY)?;
         let t = if t_range.contains(t0) {
             t0
         } else if t_range.contains(t1) {
@@ -169,12 +145,7 @@ impl Intersect for AaBox {
                 normal = unit;
             }
         }
-        Some(Hit {
-            t,
-            point,
-            normal,
-            uv: Vec2::ZERO,
-        })
+        Some(Hit { t, point, normal, uv: Vec2::ZERO })
     }
 
     fn bounds(&self) -> Aabb {
@@ -216,12 +187,7 @@ impl Intersect for Cone {
             if n == Vec3A::ZERO {
                 continue;
             }
-            return Some(Hit {
-                t,
-                point: ray.at(t),
-                normal: n,
-                uv: Vec2::ZERO,
-            });
+            return Some(Hit { t, point: ray.at(t), normal: n, uv: Vec2::ZERO });
         }
         None
     }
@@ -246,10 +212,6 @@ fn solve_quadratic(a: f32, b: f32, c: f32) -> Option<[f32; 2]> {
         return None;
     }
     let q = -0.5 * (b as f64 + disc.sqrt().copysign(b as f64));
-    let (t0, t1) = if q == 0.0 {
-        (0.0, 0.0)
-    } else {
-        ((q / a as f64) as f32, (c as f64 / q) as f32)
-    };
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { ((q / a as f64) as f32, (c as f64 / q) as f32) };
     Some(if t0 <= t1 { [t0, t1] } else { [t1, t0] })
 }

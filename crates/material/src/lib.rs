@@ -25,6 +25,11 @@ pub trait Material: Sync + Send {
 
     /// The dielectric behaviour, if the surface transmits light.
     fn dielectric(&self) -> Option<Dielectric>;
+
+    /// Radius of the sphere that perturbs mirror reflections (0: a perfect mirror).
+    fn roughness(&self) -> f32 {
+        0.0
+    }
 }
 
 /// How a transmissive surface splits light between reflection and refraction.
@@ -64,6 +69,8 @@ pub struct Phong {
     pub ior: f32,
     /// Scale of the specular highlight (1 in the plain model; see the README on the course's images).
     pub specular_scale: f32,
+    /// Fuzziness of mirror reflections in `[0, 1]` (0: a perfect mirror).
+    pub roughness: f32,
 }
 
 impl Default for Phong {
@@ -77,6 +84,7 @@ impl Default for Phong {
             transmittance: 0.0,
             ior: 1.0,
             specular_scale: 1.0,
+            roughness: 0.0,
         }
     }
 }
@@ -99,18 +107,11 @@ impl Material for Phong {
 
     #[inline]
     fn mirror(&self) -> Vec3 {
-        if self.transmittance > 0.0 {
-            Vec3::ZERO
-        } else {
-            self.specular * self.ks
-        }
+        if self.transmittance > 0.0 { Vec3::ZERO } else { self.specular * self.ks }
     }
 
     #[inline]
     fn dielectric(&self) -> Option<Dielectric> {
-        (self.transmittance > 0.0).then_some(Dielectric {
-            transmittance: self.transmittance,
-            ior: self.ior,
-        })
+        (self.transmittance > 0.0).then_some(Dielectric { transmittance: self.transmittance, ior: self.ior })
     }
 }

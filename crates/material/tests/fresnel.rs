@@ -6,19 +6,11 @@ use raylume_material::{FresnelMode, fresnel_dielectric, reflect, refract, schlic
 
 #[test]
 fn glass_reflects_four_percent_at_normal_incidence() {
-    assert_relative_eq!(
-        fresnel_dielectric(1.0, 1.0 / 1.5),
-        0.04,
-        max_relative = 1e-5
-    );
+    assert_relative_eq!(fresnel_dielectric(1.0, 1.0 / 1.5), 0.04, max_relative = 1e-5);
     // And from inside the glass, the same 4 %.
     assert_relative_eq!(fresnel_dielectric(1.0, 1.5), 0.04, max_relative = 1e-5);
     // Water (n = 1.333): ((n-1)/(n+1))^2 = 0.02037.
-    assert_relative_eq!(
-        fresnel_dielectric(1.0, 1.0 / 1.333),
-        0.020_37,
-        max_relative = 1e-3
-    );
+    assert_relative_eq!(fresnel_dielectric(1.0, 1.0 / 1.333), 0.020_37, max_relative = 1e-3);
 }
 
 #[test]
@@ -72,11 +64,7 @@ fn exact_fresnel_matches_an_f64_reference_at_every_angle() {
     for i in 0..=1000 {
         let cos = i as f64 / 1000.0;
         let got = fresnel_dielectric(cos as f32, 1.0 / 1.5) as f64;
-        assert!(
-            (got - fresnel_f64(cos, 1.5)).abs() < 1e-5,
-            "cos {cos}: {got} vs {}",
-            fresnel_f64(cos, 1.5)
-        );
+        assert!((got - fresnel_f64(cos, 1.5)).abs() < 1e-5, "cos {cos}: {got} vs {}", fresnel_f64(cos, 1.5));
     }
 }
 
@@ -93,20 +81,10 @@ fn schlick_stays_within_its_known_error() {
         }
     }
     assert!((worst - 0.0357).abs() < 1e-3, "worst Schlick error {worst}");
-    assert!(
-        (worst_cos.acos().to_degrees() - 85.0).abs() < 1.0,
-        "at {} degrees",
-        worst_cos.acos().to_degrees()
-    );
+    assert!((worst_cos.acos().to_degrees() - 85.0).abs() < 1.0, "at {} degrees", worst_cos.acos().to_degrees());
     assert!((schlick(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
-    assert_eq!(
-        FresnelMode::Schlick.reflectance(0.7, 0.8),
-        schlick(0.7, 0.8)
-    );
-    assert_eq!(
-        FresnelMode::Exact.reflectance(0.7, 0.8),
-        fresnel_dielectric(0.7, 0.8)
-    );
+    assert_eq!(FresnelMode::Schlick.reflectance(0.7, 0.8), schlick(0.7, 0.8));
+    assert_eq!(FresnelMode::Exact.reflectance(0.7, 0.8), fresnel_dielectric(0.7, 0.8));
 }
 
 #[test]

@@ -32,6 +32,7 @@ pub struct SceneBuilder {
     objects: Vec<Object>,
     accel_hint: Option<u32>,
     spp_hint: Option<u32>,
+    shutter: Option<(f32, f32)>,
     error: Option<String>,
 }
 
@@ -42,26 +43,8 @@ impl SceneBuilder {
     }
 
     /// A pinhole camera at `from` looking at `at`, with a vertical field of view in degrees.
-    pub fn camera(
-        self,
-        from: Vec3A,
-        at: Vec3A,
-        up: Vec3A,
-        angle_deg: f32,
-        width: u32,
-        height: u32,
-    ) -> Self {
-        self.view(View {
-            from,
-            at,
-            up,
-            angle_deg,
-            hither: 0.0,
-            width,
-            height,
-            aperture: 0.0,
-            focal: 1.0,
-        })
+    pub fn camera(self, from: Vec3A, at: Vec3A, up: Vec3A, angle_deg: f32, width: u32, height: u32) -> Self {
+        self.view(View { from, at, up, angle_deg, hither: 0.0, width, height, aperture: 0.0, focal: 1.0 })
     }
 
     /// The camera, with every field of the p3f `v` entity.
@@ -84,8 +67,25 @@ impl SceneBuilder {
 
     /// A point light.
     pub fn light(mut self, position: Vec3A, color: Vec3) -> Self {
-        self.lights.push(Light { position, color });
+        self.lights.push(Light { position, color, size: 0.0 });
         self
+    }
+
+    /// A square area light of side `size` in the world XY plane, centred on `position`.
+    pub fn area_light(mut self, position: Vec3A, color: Vec3, size: f32) -> Self {
+        self.lights.push(Light { position, color, size });
+        self
+    }
+
+    /// The camera's shutter interval (motion blur).
+    pub fn shutter(mut self, t0: f32, t1: f32) -> Self {
+        self.shutter = Some((t0, t1));
+        self
+    }
+
+    /// A sphere moving from `center0` at `time0` to `center1` at `time1`.
+    pub fn moving_sphere(self, center0: Vec3A, center1: Vec3A, radius: f32, time0: f32, time1: f32) -> Self {
+        self.shape(Shape::MovingSphere { center0, center1, radius, time0, time1 })
     }
 
     /// The material of the objects added after it.
@@ -97,8 +97,7 @@ impl SceneBuilder {
     /// Any shape, with the current material.
     pub fn shape(mut self, shape: Shape) -> Self {
         if self.materials.is_empty() {
-            self.error
-                .get_or_insert_with(|| "an object was added before any material".to_owned());
+            self.error.get_or_insert_with(|| "an object was added before any material".to_owned());
         }
         let material = self.materials.len().saturating_sub(1) as u32;
         self.objects.push(Object { material, shape });
@@ -127,10 +126,7 @@ impl SceneBuilder {
 
     /// A triangle mesh with 0-based indices.
     pub fn mesh(self, vertices: Vec<Vec3A>, triangles: Vec<[u32; 3]>) -> Self {
-        self.shape(Shape::Mesh {
-            vertices,
-            triangles,
-        })
+        self.shape(Shape::Mesh { vertices, triangles })
     }
 
     /// The suggested accelerator (0 none, 1 grid, 2 BVH).
@@ -150,9 +146,7 @@ impl SceneBuilder {
         if let Some(e) = self.error {
             return Err(SceneError::Invalid(e));
         }
-        let view = self
-            .view
-            .ok_or_else(|| SceneError::Invalid("the scene has no camera".to_owned()))?;
+        let view = self.view.ok_or_else(|| SceneError::Invalid("the scene has no camera".to_owned()))?;
         Ok(Scene {
             view,
             background: self.background,
@@ -162,6 +156,7 @@ impl SceneBuilder {
             objects: self.objects,
             accel_hint: self.accel_hint,
             spp_hint: self.spp_hint,
+            shutter: self.shutter,
         })
     }
 }

@@ -8,21 +8,14 @@ use crate::SceneError;
 /// Finds the cubemap folder `name` in the first of `search_dirs` that holds it and decodes its six
 /// faces (`right left top bottom front back`, `.jpg` or `.png`) to linear colours in [0, 1].
 pub fn load_cubemap(name: &str, search_dirs: &[PathBuf]) -> Result<Cubemap, SceneError> {
-    let err = |message: String| SceneError::Environment {
-        name: name.to_owned(),
-        message,
-    };
-    let dir = search_dirs
-        .iter()
-        .map(|d| d.join(name))
-        .find(|d| d.is_dir())
-        .ok_or_else(|| {
-            let looked: Vec<String> = search_dirs.iter().map(|d| d.display().to_string()).collect();
-            err(format!(
-                "no folder '{name}' in {} (give --env-dir, or --no-env to use the background colour)",
-                if looked.is_empty() { "any search folder".to_owned() } else { looked.join(", ") }
-            ))
-        })?;
+    let err = |message: String| SceneError::Environment { name: name.to_owned(), message };
+    let dir = search_dirs.iter().map(|d| d.join(name)).find(|d| d.is_dir()).ok_or_else(|| {
+        let looked: Vec<String> = search_dirs.iter().map(|d| d.display().to_string()).collect();
+        err(format!(
+            "no folder '{name}' in {} (give --env-dir, or --no-env to use the background colour)",
+            if looked.is_empty() { "any search folder".to_owned() } else { looked.join(", ") }
+        ))
+    })?;
     let mut faces = Vec::with_capacity(6);
     for face in Cubemap::FACE_NAMES {
         let path = ["jpg", "jpeg", "png"]
@@ -37,10 +30,7 @@ pub fn load_cubemap(name: &str, search_dirs: &[PathBuf]) -> Result<Cubemap, Scen
 }
 
 fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
-    let img = image::ImageReader::open(path)?
-        .with_guessed_format()?
-        .decode()?
-        .into_rgb8();
+    let img = image::ImageReader::open(path)?.with_guessed_format()?.decode()?.into_rgb8();
     let (width, height) = img.dimensions();
     let mut texels = Vec::with_capacity(width as usize * height as usize);
     // Row 0 of the face is the image's bottom row.
@@ -50,9 +40,5 @@ fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
             texels.push(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0);
         }
     }
-    Ok(CubemapFace {
-        width,
-        height,
-        texels,
-    })
+    Ok(CubemapFace { width, height, texels })
 }

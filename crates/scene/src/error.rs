@@ -51,10 +51,6 @@ pub struct Warning {
 
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: warning: {}",
-            self.file, self.line, self.column, self.message
-        )
+        write!(f, "{}:{}:{}: warning: {}", self.file, self.line, self.column, self.message)
     }
 }

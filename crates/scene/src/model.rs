@@ -24,15 +24,21 @@ pub struct Scene {
     pub accel_hint: Option<u32>,
     /// Suggested samples per pixel (p3f `spp`).
     pub spp_hint: Option<u32>,
+    /// The camera's shutter interval (raylume's `shutter t0 t1` tag); by default the moving spheres'
+    /// time span.
+    pub shutter: Option<(f32, f32)>,
 }
 
-/// A point light.
+/// A light: a point, or a square area light of side `size` in the world XY plane centred on
+/// `position`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
     /// Position.
     pub position: Vec3A,
     /// Colour.
     pub color: Vec3,
+    /// Side of the square area light; 0 for a point light.
+    pub size: f32,
 }
 
 /// An object: a shape and the index of its material in [`Scene::materials`].
@@ -101,8 +107,12 @@ pub enum Shape {
 }
 
 impl Scene {
-    /// The shutter interval: the union of the moving spheres' time spans, or `[0, 0]` without motion.
+    /// The shutter interval: the scene's `shutter`, else the union of the moving spheres' time
+    /// spans, or `[0, 0]` without motion.
     pub fn shutter(&self) -> raylume_geometry::Interval {
+        if let Some((t0, t1)) = self.shutter {
+            return raylume_geometry::Interval::new(t0, t1);
+        }
         let mut shutter: Option<(f32, f32)> = None;
         for o in &self.objects {
             if let Shape::MovingSphere { time0, time1, .. } = o.shape {

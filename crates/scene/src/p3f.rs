@@ -31,32 +31,17 @@ pub struct LoadOptions {
 }
 
 /// The tags of the format.
-const TAGS: &[&str] = &[
-    "v", "bclr", "env", "l", "f", "s", "sm", "box", "p", "pp", "pl", "c", "mesh", "accel", "spp",
-];
+const TAGS: &[&str] = &["v", "bclr", "env", "l", "f", "s", "sm", "box", "p", "pp", "pl", "c", "mesh", "accel", "spp"];
 
 /// Reads and parses a p3f file.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<(Scene, Vec<Warning>), SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
     parse(&text, &path.display().to_string(), options)
 }
 
 /// Parses p3f text; `file` names it in messages.
-pub fn parse(
-    text: &str,
-    file: &str,
-    options: &LoadOptions,
-) -> Result<(Scene, Vec<Warning>), SceneError> {
-    Parser {
-        lex: Lexer::new(text),
-        file,
-        options,
-        warnings: Vec::new(),
-    }
-    .scene()
+pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<(Scene, Vec<Warning>), SceneError> {
+    Parser { lex: Lexer::new(text), file, options, warnings: Vec::new() }.scene()
 }
 
 /// A token and where it starts.
@@ -77,13 +62,7 @@ struct Lexer<'a> {
 
 impl<'a> Lexer<'a> {
     fn new(text: &'a str) -> Self {
-        Self {
-            text,
-            pos: 0,
-            line: 1,
-            line_start: 0,
-            peeked: None,
-        }
+        Self { text, pos: 0, line: 1, line_start: 0, peeked: None }
     }
 
     fn scan(&mut self) -> Option<Token<'a>> {
@@ -108,18 +87,11 @@ impl<'a> Lexer<'a> {
             return None;
         }
         let start = self.pos;
-        while self.pos < bytes.len()
-            && !bytes[self.pos].is_ascii_whitespace()
-            && bytes[self.pos] != b'#'
-        {
+        while self.pos < bytes.len() && !bytes[self.pos].is_ascii_whitespace() && bytes[self.pos] != b'#' {
             self.pos += 1;
         }
         let column = self.text[self.line_start..start].chars().count() as u32 + 1;
-        Some(Token {
-            text: &self.text[start..self.pos],
-            line: self.line,
-            column,
-        })
+        Some(Token { text: &self.text[start..self.pos], line: self.line, column })
     }
 
     fn next(&mut self) -> Option<Token<'a>> {
@@ -157,12 +129,7 @@ struct Parser<'a, 'f> {
 
 impl<'a> Parser<'a, '_> {
     fn error_at(&self, line: u32, column: u32, message: String) -> SceneError {
-        SceneError::Syntax {
-            file: self.file.to_owned(),
-            line,
-            column,
-            message,
-        }
+        SceneError::Syntax { file: self.file.to_owned(), line, column, message }
     }
 
     fn error(&self, token: &Token, message: String) -> SceneError {
@@ -175,11 +142,7 @@ impl<'a> Parser<'a, '_> {
             Some(t) => Ok(t),
             None => {
                 let (line, column) = self.lex.eof_position();
-                Err(self.error_at(
-                    line,
-                    column,
-                    format!("expected {expected}, found the end of the file"),
-                ))
+                Err(self.error_at(line, column, format!("expected {expected}, found the end of the file")))
             }
         }
     }
@@ -188,14 +151,8 @@ impl<'a> Parser<'a, '_> {
         let t = self.token(&format!("a number ({what})"))?;
         match t.text.parse::<f64>() {
             Ok(v) if v.is_finite() && (v as f32).is_finite() => Ok(v as f32),
-            Ok(_) => Err(self.error(
-                &t,
-                format!("expected a finite number ({what}), found '{}'", t.text),
-            )),
-            Err(_) => Err(self.error(
-                &t,
-                format!("expected a number ({what}), found '{}'", t.text),
-            )),
+            Ok(_) => Err(self.error(&t, format!("expected a finite number ({what}), found '{}'", t.text))),
+            Err(_) => Err(self.error(&t, format!("expected a number ({what}), found '{}'", t.text))),
         }
     }
 
@@ -219,10 +176,7 @@ impl<'a> Parser<'a, '_> {
         let v = self.number(what)?;
         if v <= 0.0 {
             let t = t.expect("a number was read");
-            return Err(self.error(
-                &t,
-                format!("expected a positive {what}, found '{}'", t.text),
-            ));
+            return Err(self.error(&t, format!("expected a positive {what}, found '{}'", t.text)));
         }
         Ok(v)
     }
@@ -232,14 +186,8 @@ impl<'a> Parser<'a, '_> {
         let t = self.token(&format!("an integer ({what})"))?;
         match t.text.parse::<i64>() {
             Ok(v) if (min..=max).contains(&v) => Ok(v),
-            Ok(_) => Err(self.error(
-                &t,
-                format!("expected {what} in {min}..={max}, found '{}'", t.text),
-            )),
-            Err(_) => Err(self.error(
-                &t,
-                format!("expected an integer ({what}), found '{}'", t.text),
-            )),
+            Ok(_) => Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.text))),
+            Err(_) => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.text))),
         }
     }
 
@@ -259,10 +207,7 @@ impl<'a> Parser<'a, '_> {
         let room = self.lex.remaining() / 2 + 1;
         if n.saturating_mul(numbers_each) > room {
             let t = t.expect("a number was read");
-            return Err(self.error(
-                &t,
-                format!("{what} is {n}, but the rest of the file holds at most {room} numbers"),
-            ));
+            return Err(self.error(&t, format!("{what} is {n}, but the rest of the file holds at most {room} numbers")));
         }
         Ok(n)
     }
@@ -276,19 +221,13 @@ impl<'a> Parser<'a, '_> {
         let mut objects = Vec::new();
         let mut accel_hint = None;
         let mut spp_hint = None;
+        let mut shutter = None;
         while let Some(tag) = self.lex.next() {
-            let needs_material = matches!(
-                tag.text,
-                "s" | "sm" | "box" | "p" | "pp" | "pl" | "c" | "mesh"
-            );
+            let needs_material = matches!(tag.text, "s" | "sm" | "box" | "p" | "pp" | "pl" | "c" | "mesh");
             if needs_material && materials.is_empty() {
-                return Err(self.error(
-                    &tag,
-                    format!(
-                        "'{}' comes before any material: expected an 'f' entity first",
-                        tag.text
-                    ),
-                ));
+                return Err(
+                    self.error(&tag, format!("'{}' comes before any material: expected an 'f' entity first", tag.text))
+                );
             }
             let material = materials.len().saturating_sub(1) as u32;
             let shape = match tag.text {
@@ -306,12 +245,17 @@ impl<'a> Parser<'a, '_> {
                 }
                 "l" => {
                     let position = self.vec3("light position")?;
-                    let color = if self.next_is_number() {
-                        self.color("light colour")?
-                    } else {
-                        Vec3::ONE
-                    };
-                    lights.push(Light { position, color });
+                    let color = if self.next_is_number() { self.color("light colour")? } else { Vec3::ONE };
+                    // raylume's extension: a 7th number makes it a square area light of that side.
+                    let mut size = 0.0;
+                    if self.next_is_number() {
+                        let t = self.lex.peek().expect("a number is next");
+                        size = self.number("area light size")?;
+                        if size < 0.0 {
+                            return Err(self.error(&t, format!("expected an area light size >= 0, found '{}'", t.text)));
+                        }
+                    }
+                    lights.push(Light { position, color, size });
                     None
                 }
                 "f" => {
@@ -329,13 +273,7 @@ impl<'a> Parser<'a, '_> {
                     let radius = self.positive("moving sphere radius")?;
                     let time0 = self.number("moving sphere t0")?;
                     let time1 = self.number("moving sphere t1")?;
-                    Some(Shape::MovingSphere {
-                        center0,
-                        center1,
-                        radius,
-                        time0,
-                        time1,
-                    })
+                    Some(Shape::MovingSphere { center0, center1, radius, time0, time1 })
                 }
                 "box" => {
                     let min = self.vec3("box min")?;
@@ -343,9 +281,7 @@ impl<'a> Parser<'a, '_> {
                     let max = self.vec3("box max")?;
                     if min.cmpgt(max).any() {
                         let t = t.expect("a number was read");
-                        return Err(
-                            self.error(&t, "expected box max >= box min on every axis".to_owned())
-                        );
+                        return Err(self.error(&t, "expected box max >= box min on every axis".to_owned()));
                     }
                     Some(Shape::Box { min, max })
                 }
@@ -372,10 +308,7 @@ impl<'a> Parser<'a, '_> {
                     let p1 = self.vec3("plane point 1")?;
                     let p2 = self.vec3("plane point 2")?;
                     if raylume_geometry::Plane::from_points(p0, p1, p2).is_none() {
-                        return Err(self.error(
-                            &tag,
-                            "expected three plane points that are not collinear".to_owned(),
-                        ));
+                        return Err(self.error(&tag, "expected three plane points that are not collinear".to_owned()));
                     }
                     Some(Shape::Plane([p0, p1, p2]))
                 }
@@ -384,29 +317,31 @@ impl<'a> Parser<'a, '_> {
                     let base_radius = self.number("cone base radius")?;
                     let apex = self.vec3("cone apex")?;
                     let apex_radius = self.number("cone apex radius")?;
-                    if base_radius < 0.0
-                        || apex_radius < 0.0
-                        || (base_radius == 0.0 && apex_radius == 0.0)
-                    {
-                        return Err(
-                            self.error(&tag, "expected cone radii >= 0, not both 0".to_owned())
-                        );
+                    if base_radius < 0.0 || apex_radius < 0.0 || (base_radius == 0.0 && apex_radius == 0.0) {
+                        return Err(self.error(&tag, "expected cone radii >= 0, not both 0".to_owned()));
                     }
-                    Some(Shape::Cone {
-                        base,
-                        base_radius,
-                        apex,
-                        apex_radius,
-                    })
+                    Some(Shape::Cone { base, base_radius, apex, apex_radius })
                 }
                 "mesh" => Some(self.mesh()?),
                 "accel" => {
-                    accel_hint =
-                        Some(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32);
+                    accel_hint = Some(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32);
                     None
                 }
                 "spp" => {
                     spp_hint = Some(self.integer("samples per pixel", 0, 1 << 16)? as u32);
+                    None
+                }
+                "shutter" => {
+                    let t0 = self.number("shutter open time")?;
+                    let t = self.lex.peek();
+                    let t1 = self.number("shutter close time")?;
+                    if t1 < t0 {
+                        let t = t.expect("a number was read");
+                        return Err(
+                            self.error(&t, format!("expected a shutter close time >= {t0}, found '{}'", t.text))
+                        );
+                    }
+                    shutter = Some((t0, t1));
                     None
                 }
                 _ => {
@@ -426,50 +361,25 @@ impl<'a> Parser<'a, '_> {
                 "expected a camera ('v' entity), found none in the file".to_owned(),
             ));
         };
-        let scene = Scene {
-            view,
-            background,
-            env,
-            lights,
-            materials,
-            objects,
-            accel_hint,
-            spp_hint,
-        };
+        let scene = Scene { view, background, env, lights, materials, objects, accel_hint, spp_hint, shutter };
         Ok((scene, self.warnings))
     }
 
     fn next_is_number(&mut self) -> bool {
-        self.lex
-            .peek()
-            .is_some_and(|t| t.text.parse::<f64>().is_ok())
+        self.lex.peek().is_some_and(|t| t.text.parse::<f64>().is_ok())
     }
 
     /// Skips an unknown tag and its numbers (up to the next known tag), with a warning.
     fn unknown(&mut self, tag: &Token) -> Result<(), SceneError> {
-        let message = if TAGS.iter().any(|k| k.eq_ignore_ascii_case(tag.text))
-            || tag.text.parse::<f64>().is_err()
-        {
-            format!(
-                "unknown tag '{}' (expected one of {}), skipped",
-                tag.text,
-                TAGS.join(" ")
-            )
+        let message = if TAGS.iter().any(|k| k.eq_ignore_ascii_case(tag.text)) || tag.text.parse::<f64>().is_err() {
+            format!("unknown tag '{}' (expected one of {}), skipped", tag.text, TAGS.join(" "))
         } else {
-            format!(
-                "unexpected number '{}' where a tag was expected, skipped",
-                tag.text
-            )
+            format!("unexpected number '{}' where a tag was expected, skipped", tag.text)
         };
         if self.options.strict {
             return Err(self.error(tag, message.replace(", skipped", "")));
         }
-        self.warnings.push(Warning {
-            file: self.file.to_owned(),
-            line: tag.line,
-            column: tag.column,
-            message,
-        });
+        self.warnings.push(Warning { file: self.file.to_owned(), line: tag.line, column: tag.column, message });
         while let Some(t) = self.lex.peek() {
             if TAGS.contains(&t.text) {
                 break;
@@ -492,10 +402,7 @@ impl<'a> Parser<'a, '_> {
         let angle_deg = self.number("angle in degrees")?;
         if !(angle_deg > 0.0 && angle_deg < 180.0) {
             let t = angle_token.expect("a number was read");
-            return Err(self.error(
-                &t,
-                format!("expected an angle in (0, 180) degrees, found '{}'", t.text),
-            ));
+            return Err(self.error(&t, format!("expected an angle in (0, 180) degrees, found '{}'", t.text)));
         }
         self.keyword("hither")?;
         let hither = self.number("hither")?;
@@ -505,20 +412,14 @@ impl<'a> Parser<'a, '_> {
         let height = self.integer("resolution height", 1, MAX_RESOLUTION as i64)? as u32;
         if width as u64 * height as u64 > MAX_PIXELS {
             let t = res_token.expect("a number was read");
-            return Err(self.error(
-                &t,
-                format!("resolution {width} x {height} exceeds {MAX_PIXELS} pixels"),
-            ));
+            return Err(self.error(&t, format!("resolution {width} x {height} exceeds {MAX_PIXELS} pixels")));
         }
         let (mut aperture, mut focal) = (0.0, 1.0);
         if self.lex.peek().is_some_and(|t| t.text == "aperture") {
             self.lex.next();
             aperture = self.number("aperture")?;
             if aperture < 0.0 {
-                return Err(self.error(
-                    &res_token.expect("read"),
-                    "expected aperture >= 0".to_owned(),
-                ));
+                return Err(self.error(&res_token.expect("read"), "expected aperture >= 0".to_owned()));
             }
             self.keyword("focal")?;
             focal = self.positive("focal ratio")?;
@@ -526,22 +427,11 @@ impl<'a> Parser<'a, '_> {
         let dir = from - at;
         if dir.length_squared() == 0.0 || up.cross(dir).length_squared() == 0.0 {
             let t = up_token.expect("a number was read");
-            return Err(self.error(
-                &t,
-                "expected 'from' != 'at' and 'up' not parallel to the view direction".to_owned(),
-            ));
+            return Err(
+                self.error(&t, "expected 'from' != 'at' and 'up' not parallel to the view direction".to_owned())
+            );
         }
-        Ok(View {
-            from,
-            at,
-            up,
-            angle_deg,
-            hither,
-            width,
-            height,
-            aperture,
-            focal,
-        })
+        Ok(View { from, at, up, angle_deg, hither, width, height, aperture, focal })
     }
 
     fn material(&mut self) -> Result<Phong, SceneError> {
@@ -555,18 +445,21 @@ impl<'a> Parser<'a, '_> {
         let ior = self.number("index of refraction")?;
         if transmittance > 0.0 && ior <= 0.0 {
             let t = ior_token.expect("a number was read");
-            return Err(self.error(&t, format!("expected a positive index of refraction for a transparent material, found '{}'", t.text)));
+            return Err(self.error(
+                &t,
+                format!("expected a positive index of refraction for a transparent material, found '{}'", t.text),
+            ));
         }
-        Ok(Phong {
-            diffuse,
-            kd,
-            specular,
-            ks,
-            shine,
-            transmittance,
-            ior,
-            specular_scale: 1.0,
-        })
+        // raylume's extension: an optional 12th number, the roughness of mirror reflections.
+        let mut roughness = 0.0;
+        if self.next_is_number() {
+            let t = self.lex.peek().expect("a number is next");
+            roughness = self.number("roughness")?;
+            if !(0.0..=1.0).contains(&roughness) {
+                return Err(self.error(&t, format!("expected a roughness in [0, 1], found '{}'", t.text)));
+            }
+        }
+        Ok(Phong { diffuse, kd, specular, ks, shine, transmittance, ior, specular_scale: 1.0, roughness })
     }
 
     fn mesh(&mut self) -> Result<Shape, SceneError> {
@@ -576,7 +469,12 @@ impl<'a> Parser<'a, '_> {
         let room = self.lex.remaining() / 2 + 1;
         if nv.saturating_mul(3).saturating_add(nf.saturating_mul(3)) > room {
             let t = nf_token.expect("a number was read");
-            return Err(self.error(&t, format!("mesh of {nv} vertices and {nf} triangles, but the rest of the file holds at most {room} numbers")));
+            return Err(self.error(
+                &t,
+                format!(
+                    "mesh of {nv} vertices and {nf} triangles, but the rest of the file holds at most {room} numbers"
+                ),
+            ));
         }
         let mut vertices = Vec::with_capacity(nv);
         for i in 0..nv {
@@ -589,25 +487,17 @@ impl<'a> Parser<'a, '_> {
                 let t = self.token("a vertex index")?;
                 let what = format!("vertex index {} of mesh triangle {}", k + 1, f + 1);
                 let Ok(i) = t.text.parse::<i64>() else {
-                    return Err(self.error(
-                        &t,
-                        format!("expected an integer ({what}), found '{}'", t.text),
-                    ));
+                    return Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.text)));
                 };
                 // 1-based; non-positive counts back from the end (OBJ style).
                 let zero_based = if i > 0 { i - 1 } else { nv as i64 + i };
                 if zero_based < 0 || zero_based >= nv as i64 {
-                    return Err(
-                        self.error(&t, format!("{what} is {i}, out of range for {nv} vertices"))
-                    );
+                    return Err(self.error(&t, format!("{what} is {i}, out of range for {nv} vertices")));
                 }
                 *slot = zero_based as u32;
             }
             triangles.push(tri);
         }
-        Ok(Shape::Mesh {
-            vertices,
-            triangles,
-        })
+        Ok(Shape::Mesh { vertices, triangles })
     }
 }

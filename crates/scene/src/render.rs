@@ -2,20 +2,21 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh};
-use raylume_camera::{Camera, Pinhole, ThinLens};
-use raylume_geometry::{AaBox, Aabb, Cone, MovingSphere, Plane, Sphere, Triangle, Vec3A};
+use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
+use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Film, PointLight, RayStats, RenderSettings, Shading, Whitted, World, render,
+    Background, Centre, Film, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading, SoftShadows,
+    Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
 use crate::{Scene, SceneError, Shape, load_cubemap, p3f};
 
-/// How to render a scene: the integrator's settings plus the choices the scene file may suggest.
+/// How to render a scene: the integrator's settings plus overrides of what the scene file says.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
-    /// Depth, samples, seed, Fresnel mode.
+    /// Depth, samples, seed, Fresnel mode, light grid, crop.
     pub settings: RenderSettings,
     /// The accelerator; `None` takes the scene's `accel` hint, else the BVH.
     pub accel: Option<AccelKind>,
@@ -27,6 +28,16 @@ pub struct RenderOptions {
     pub use_env: bool,
     /// Scale of every material's specular highlight (1 in the plain model).
     pub specular_scale: f32,
+    /// Makes every light a square area light of this side (0: every light a point).
+    pub area_light_size: Option<f32>,
+    /// Overrides every reflective material's roughness.
+    pub roughness: Option<f32>,
+    /// Overrides the camera's aperture (p3f units: multiples of the pixel size).
+    pub aperture: Option<f32>,
+    /// Overrides the camera's focal distance (a ratio of the view-plane distance).
+    pub focal: Option<f32>,
+    /// Overrides the shutter interval.
+    pub shutter: Option<(f32, f32)>,
 }
 
 impl Default for RenderOptions {
@@ -38,7 +49,47 @@ impl Default for RenderOptions {
             env_dirs: Vec::new(),
             use_env: true,
             specular_scale: 1.0,
+            area_light_size: None,
+            roughness: None,
+            aperture: None,
+            focal: None,
+            shutter: None,
         }
+    }
+}
+
+/// What a render uses, derived from the scene and the options before rendering; each effect not
+/// used is left out of the render loop that runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    /// More than one sample per pixel.
+    pub antialiasing: bool,
+    /// Some light has a size.
+    pub area_lights: bool,
+    /// The camera has an aperture.
+    pub depth_of_field: bool,
+    /// Some reflective material is rough.
+    pub fuzzy_reflections: bool,
+    /// Some sphere moves during a shutter interval of non-zero length.
+    pub motion_blur: bool,
+    /// Some material transmits light.
+    pub transmission: bool,
+    /// The scene has lights.
+    pub lights: bool,
+}
+
+impl std::fmt::Display for Features {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names = [
+            (self.antialiasing, "antialiasing"),
+            (self.area_lights, "soft shadows"),
+            (self.depth_of_field, "depth of field"),
+            (self.fuzzy_reflections, "fuzzy reflections"),
+            (self.motion_blur, "motion blur"),
+            (self.transmission, "refraction"),
+        ];
+        let used: Vec<&str> = names.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect();
+        if used.is_empty() { write!(f, "none") } else { write!(f, "{}", used.join(", ")) }
     }
 }
 
@@ -51,6 +102,8 @@ pub struct RenderOutput {
     pub stats: RayStats,
     /// The accelerator used.
     pub accel: AccelKind,
+    /// The effects the render used.
+    pub features: Features,
     /// Seconds spent building the accelerator.
     pub build_seconds: f64,
     /// Seconds spent tracing.
@@ -80,26 +133,13 @@ impl Scene {
         for o in &self.objects {
             let mut push = |p: Primitive, normals: u32| {
                 out.primitives.push(p);
-                out.shading.push(Shading {
-                    material: o.material,
-                    normals,
-                });
+                out.shading.push(Shading { material: o.material, normals });
             };
             match &o.shape {
-                Shape::Sphere { center, radius } => push(
-                    Primitive::Sphere(Sphere {
-                        center: *center,
-                        radius: *radius,
-                    }),
-                    none,
-                ),
-                Shape::MovingSphere {
-                    center0,
-                    center1,
-                    radius,
-                    time0,
-                    time1,
-                } => push(
+                Shape::Sphere { center, radius } => {
+                    push(Primitive::Sphere(Sphere { center: *center, radius: *radius }), none)
+                }
+                Shape::MovingSphere { center0, center1, radius, time0, time1 } => push(
                     Primitive::MovingSphere(MovingSphere {
                         center0: *center0,
                         center1: *center1,
@@ -109,18 +149,10 @@ impl Scene {
                     }),
                     none,
                 ),
-                Shape::Box { min, max } => push(
-                    Primitive::Box(AaBox {
-                        bounds: Aabb::new(*min, *max),
-                    }),
-                    none,
-                ),
+                Shape::Box { min, max } => push(Primitive::Box(AaBox { bounds: Aabb::new(*min, *max) }), none),
                 Shape::Polygon(v) => {
                     for i in 1..v.len().saturating_sub(1) {
-                        push(
-                            Primitive::Triangle(Triangle::new(v[0], v[i], v[i + 1])),
-                            none,
-                        );
+                        push(Primitive::Triangle(Triangle::new(v[0], v[i], v[i + 1])), none);
                     }
                 }
                 Shape::Patch(v) => {
@@ -130,15 +162,9 @@ impl Scene {
                         out.vertex_normals.push(normals);
                         let mut push = |p: Primitive, normals: u32| {
                             out.primitives.push(p);
-                            out.shading.push(Shading {
-                                material: o.material,
-                                normals,
-                            });
+                            out.shading.push(Shading { material: o.material, normals });
                         };
-                        push(
-                            Primitive::Triangle(Triangle::new(v[0].0, v[i].0, v[i + 1].0)),
-                            index,
-                        );
+                        push(Primitive::Triangle(Triangle::new(v[0].0, v[i].0, v[i + 1].0)), index);
                     }
                 }
                 Shape::Plane([p0, p1, p2]) => {
@@ -146,12 +172,7 @@ impl Scene {
                         push(Primitive::Plane(plane), none);
                     }
                 }
-                Shape::Cone {
-                    base,
-                    base_radius,
-                    apex,
-                    apex_radius,
-                } => push(
+                Shape::Cone { base, base_radius, apex, apex_radius } => push(
                     Primitive::Cone(Cone {
                         base: *base,
                         base_radius: *base_radius,
@@ -160,10 +181,7 @@ impl Scene {
                     }),
                     none,
                 ),
-                Shape::Mesh {
-                    vertices,
-                    triangles,
-                } => {
+                Shape::Mesh { vertices, triangles } => {
                     for t in triangles {
                         let [a, b, c] = t.map(|i| vertices[i as usize]);
                         push(Primitive::Triangle(Triangle::new(a, b, c)), none);
@@ -183,12 +201,12 @@ impl Scene {
         })
     }
 
-    /// Renders the scene. `on_row` is called once per finished image row.
-    pub fn render(
+    /// The scene as it will be rendered with `options`: its view, lights and materials with the
+    /// overrides applied.
+    fn prepared(
         &self,
         options: &RenderOptions,
-        on_row: &(dyn Fn() + Sync),
-    ) -> Result<RenderOutput, SceneError> {
+    ) -> Result<(raylume_camera::View, Vec<Light>, Vec<Phong>, Interval), SceneError> {
         let mut view = self.view;
         if let Some((w, h)) = options.resolution {
             if w == 0
@@ -206,44 +224,88 @@ impl Scene {
             view.width = w;
             view.height = h;
         }
-        let env = match (&self.env, options.use_env) {
-            (Some(name), true) => Some(load_cubemap(name, &options.env_dirs)?),
-            _ => None,
+        let check = |name: &str, v: Option<f32>, ok: fn(f32) -> bool| match v {
+            Some(x) if !x.is_finite() || !ok(x) => Err(SceneError::Invalid(format!("{name} {x} is out of range"))),
+            _ => Ok(()),
         };
-        let background = Background {
-            color: self.background,
-            env,
-        };
+        check("area light size", options.area_light_size, |x| x >= 0.0)?;
+        check("roughness", options.roughness, |x| (0.0..=1.0).contains(&x))?;
+        check("aperture", options.aperture, |x| x >= 0.0)?;
+        check("focal distance", options.focal, |x| x > 0.0)?;
+        view.aperture = options.aperture.unwrap_or(view.aperture);
+        view.focal = options.focal.unwrap_or(view.focal);
         let lights = self
             .lights
             .iter()
-            .map(|l| PointLight {
-                position: l.position,
-                color: l.color,
-            })
+            .map(|l| Light { position: l.position, color: l.color, size: options.area_light_size.unwrap_or(l.size) })
             .collect();
-        let materials: Vec<Phong> = self
+        let materials = self
             .materials
             .iter()
             .map(|m| Phong {
                 specular_scale: options.specular_scale,
+                roughness: options.roughness.unwrap_or(m.roughness),
                 ..*m
             })
             .collect();
-        let Primitives {
-            primitives,
-            shading,
-            vertex_normals,
-        } = self.primitives();
-        let shutter = self.shutter();
+        let shutter = match options.shutter {
+            Some((t0, t1)) if t0.is_finite() && t1.is_finite() && t0 <= t1 => Interval::new(t0, t1),
+            Some((t0, t1)) => return Err(SceneError::Invalid(format!("shutter [{t0}, {t1}] is not an interval"))),
+            None => self.shutter(),
+        };
+        Ok((view, lights, materials, shutter))
+    }
+
+    /// What rendering with `options` uses.
+    pub fn features(&self, options: &RenderOptions) -> Result<Features, SceneError> {
+        let (view, lights, materials, shutter) = self.prepared(options)?;
+        Ok(self.features_of(&view, &lights, &materials, shutter, &options.settings))
+    }
+
+    fn features_of(
+        &self,
+        view: &raylume_camera::View,
+        lights: &[Light],
+        materials: &[Phong],
+        shutter: Interval,
+        settings: &RenderSettings,
+    ) -> Features {
+        let moving = self
+            .objects
+            .iter()
+            .any(|o| matches!(o.shape, Shape::MovingSphere { center0, center1, .. } if center0 != center1));
+        Features {
+            antialiasing: settings.antialiasing(),
+            area_lights: lights.iter().any(|l| l.size > 0.0),
+            depth_of_field: view.aperture > 0.0,
+            fuzzy_reflections: materials.iter().any(|m| m.roughness > 0.0 && m.ks > 0.0 && m.transmittance == 0.0),
+            motion_blur: moving && shutter.max > shutter.min,
+            transmission: materials.iter().any(|m| m.transmittance > 0.0),
+            lights: !lights.is_empty(),
+        }
+    }
+
+    /// Renders the scene. `on_row` is called once per finished image row.
+    ///
+    /// The effects the scene and options use ([`Scene::features`]) choose one of a small set of
+    /// monomorphised render loops (camera, sampler and soft-shadow mode are type parameters), so
+    /// the work of an unused effect is absent from the loop rather than skipped per ray.
+    pub fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError> {
+        let (view, lights, materials, shutter) = self.prepared(options)?;
+        let features = self.features_of(&view, &lights, &materials, shutter, &options.settings);
+        let env = match (&self.env, options.use_env) {
+            (Some(name), true) => Some(load_cubemap(name, &options.env_dirs)?),
+            _ => None,
+        };
+        let background = Background { color: self.background, env };
+        let Primitives { primitives, shading, vertex_normals } = self.primitives();
         let kind = match self.accel_kind(options) {
             // The uniform grid is not built yet: the BVH stands in for it.
             AccelKind::Grid => AccelKind::Bvh,
             k => k,
         };
         let build = Instant::now();
-        let integrator = Whitted::new(&options.settings);
-        let settings = &options.settings;
+        let job = Job { view: &view, shutter, features, settings: &options.settings, on_row };
         let (film, stats, build_seconds, render_seconds) = match kind {
             AccelKind::None => {
                 let world = World {
@@ -255,7 +317,7 @@ impl Scene {
                     background,
                 };
                 let b = build.elapsed().as_secs_f64();
-                let (f, s, r) = render_with(&world, &view, shutter, &integrator, settings, on_row);
+                let (f, s, r) = job.with_camera(&world);
                 (f, s, b, r)
             }
             _ => {
@@ -268,55 +330,60 @@ impl Scene {
                     background,
                 };
                 let b = build.elapsed().as_secs_f64();
-                let (f, s, r) = render_with(&world, &view, shutter, &integrator, settings, on_row);
+                let (f, s, r) = job.with_camera(&world);
                 (f, s, b, r)
             }
         };
-        Ok(RenderOutput {
-            film,
-            stats,
-            accel: kind,
-            build_seconds,
-            render_seconds,
-        })
+        Ok(RenderOutput { film, stats, accel: kind, features, build_seconds, render_seconds })
     }
 }
 
-/// Chooses the camera once, so each combination is its own monomorphised render loop.
-fn render_with<A: Accelerator>(
-    world: &World<A, Phong>,
-    view: &raylume_camera::View,
-    shutter: raylume_geometry::Interval,
-    integrator: &Whitted,
-    settings: &RenderSettings,
-    on_row: &(dyn Fn() + Sync),
-) -> (Film, RayStats, f64) {
-    fn go<A: Accelerator, C: Camera>(
+/// One render's choices, turned into types one decision at a time.
+struct Job<'a> {
+    view: &'a raylume_camera::View,
+    shutter: Interval,
+    features: Features,
+    settings: &'a RenderSettings,
+    on_row: &'a (dyn Fn() + Sync),
+}
+
+impl Job<'_> {
+    fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>) -> (Film, RayStats, f64) {
+        let open = self.shutter.min;
+        match (self.features.depth_of_field, self.features.motion_blur) {
+            (false, false) => self.with_sampler(world, &Pinhole::new(self.view).at_time(open)),
+            (true, false) => self.with_sampler(world, &ThinLens::new(self.view).at_time(open)),
+            (false, true) => self.with_sampler(world, &MotionBlur::new(Pinhole::new(self.view), self.shutter)),
+            (true, true) => self.with_sampler(world, &MotionBlur::new(ThinLens::new(self.view), self.shutter)),
+        }
+    }
+
+    fn with_sampler<A: Accelerator, C: Camera>(&self, world: &World<A, Phong>, camera: &C) -> (Film, RayStats, f64) {
+        let s = self.settings;
+        match (self.features.antialiasing, self.features.area_lights) {
+            (false, false) => self.go(world, camera, &Centre::new(s.seed), &Whitted::new(s)),
+            (false, true) => {
+                self.go(world, camera, &Centre::new(s.seed), &Whitted::<{ SoftShadows::GRID }>::with_soft_shadows(s))
+            }
+            (true, false) => self.go(world, camera, &Jittered::new(s.seed, s.strata()), &Whitted::new(s)),
+            (true, true) => self.go(
+                world,
+                camera,
+                &Jittered::new(s.seed, s.strata()),
+                &Whitted::<{ SoftShadows::STRATIFIED }>::with_soft_shadows(s),
+            ),
+        }
+    }
+
+    fn go<A: Accelerator, C: Camera, S: Sampler, I: Integrator>(
+        &self,
         world: &World<A, Phong>,
         camera: &C,
-        integrator: &Whitted,
-        settings: &RenderSettings,
-        on_row: &(dyn Fn() + Sync),
+        sampler: &S,
+        integrator: &I,
     ) -> (Film, RayStats, f64) {
         let start = Instant::now();
-        let (film, stats) = render(world, camera, integrator, settings, on_row);
+        let (film, stats) = render(world, camera, sampler, integrator, self.settings, self.on_row);
         (film, stats, start.elapsed().as_secs_f64())
-    }
-    if view.aperture > 0.0 {
-        go(
-            world,
-            &ThinLens::new(view).with_shutter(shutter),
-            integrator,
-            settings,
-            on_row,
-        )
-    } else {
-        go(
-            world,
-            &Pinhole::new(view).with_shutter(shutter),
-            integrator,
-            settings,
-            on_row,
-        )
     }
 }

@@ -24,6 +24,9 @@ impl Scene {
         if let Some(s) = self.spp_hint {
             let _ = writeln!(o, "spp {s}");
         }
+        if let Some((t0, t1)) = self.shutter {
+            let _ = writeln!(o, "shutter {t0} {t1}");
+        }
         o.push_str("bclr ");
         c3(o, self.background);
         o.push('\n');
@@ -37,17 +40,16 @@ impl Scene {
         v3(o, v.at);
         o.push_str("\nup ");
         v3(o, v.up);
-        let _ = writeln!(
-            o,
-            "\nangle {}\nhither {}\nresolution {} {}",
-            v.angle_deg, v.hither, v.width, v.height
-        );
+        let _ = writeln!(o, "\nangle {}\nhither {}\nresolution {} {}", v.angle_deg, v.hither, v.width, v.height);
         let _ = writeln!(o, "aperture {}\nfocal {}", v.aperture, v.focal);
         for l in &self.lights {
             o.push_str("l ");
             v3(o, l.position);
             o.push(' ');
             c3(o, l.color);
+            if l.size > 0.0 {
+                let _ = write!(o, " {}", l.size);
+            }
             o.push('\n');
         }
         // Each material, then the objects that use it: the canonical order the parser and the
@@ -57,12 +59,12 @@ impl Scene {
             c3(o, m.diffuse);
             let _ = write!(o, " {} ", m.kd);
             c3(o, m.specular);
-            let _ = writeln!(o, " {} {} {} {}", m.ks, m.shine, m.transmittance, m.ior);
-            for obj in self
-                .objects
-                .iter()
-                .filter(|obj| obj.material as usize == index)
-            {
+            let _ = write!(o, " {} {} {} {}", m.ks, m.shine, m.transmittance, m.ior);
+            if m.roughness > 0.0 {
+                let _ = write!(o, " {}", m.roughness);
+            }
+            o.push('\n');
+            for obj in self.objects.iter().filter(|obj| obj.material as usize == index) {
                 write_shape(o, &obj.shape);
             }
         }
@@ -77,13 +79,7 @@ fn write_shape(o: &mut String, shape: &Shape) {
             v3(o, *center);
             let _ = writeln!(o, " {radius}");
         }
-        Shape::MovingSphere {
-            center0,
-            center1,
-            radius,
-            time0,
-            time1,
-        } => {
+        Shape::MovingSphere { center0, center1, radius, time0, time1 } => {
             o.push_str("sm ");
             v3(o, *center0);
             o.push(' ');
@@ -121,22 +117,14 @@ fn write_shape(o: &mut String, shape: &Shape) {
             }
             o.push('\n');
         }
-        Shape::Cone {
-            base,
-            base_radius,
-            apex,
-            apex_radius,
-        } => {
+        Shape::Cone { base, base_radius, apex, apex_radius } => {
             o.push_str("c ");
             v3(o, *base);
             let _ = write!(o, " {base_radius} ");
             v3(o, *apex);
             let _ = writeln!(o, " {apex_radius}");
         }
-        Shape::Mesh {
-            vertices,
-            triangles,
-        } => {
+        Shape::Mesh { vertices, triangles } => {
             let _ = writeln!(o, "mesh {} {}", vertices.len(), triangles.len());
             for p in vertices {
                 v3(o, *p);

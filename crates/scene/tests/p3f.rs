@@ -20,9 +20,7 @@ fn ok(text: &str) -> Scene {
 }
 
 fn err(text: &str) -> String {
-    parse(text, "bad.p3f", &LoadOptions::default())
-        .expect_err("must fail")
-        .to_string()
+    parse(text, "bad.p3f", &LoadOptions::default()).expect_err("must fail").to_string()
 }
 
 #[test]
@@ -55,11 +53,7 @@ fn every_tag() {
     assert_eq!(s.background, Vec3::new(0.1, 0.2, 0.3));
     assert_eq!(s.env.as_deref(), Some("skybox"));
     assert_eq!(s.lights.len(), 2);
-    assert_eq!(
-        s.lights[1].color,
-        Vec3::ONE,
-        "a light without colour is white"
-    );
+    assert_eq!(s.lights[1].color, Vec3::ONE, "a light without colour is white");
     assert_eq!(s.materials.len(), 2);
     assert_eq!(s.materials[0].shine, 30.0827);
     assert_eq!(s.materials[1].ior, 1.35);
@@ -79,14 +73,8 @@ fn every_tag() {
         .collect();
     assert_eq!(kinds, ["s", "sm", "box", "p", "pp", "pl", "c", "mesh"]);
     assert_eq!(s.objects[7].material, 1);
-    let Shape::Mesh { triangles, .. } = &s.objects[7].shape else {
-        unreachable!()
-    };
-    assert_eq!(
-        triangles,
-        &vec![[0, 1, 2], [0, 2, 3]],
-        "1-based, and -1 is the last vertex"
-    );
+    let Shape::Mesh { triangles, .. } = &s.objects[7].shape else { unreachable!() };
+    assert_eq!(triangles, &vec![[0, 1, 2], [0, 2, 3]], "1-based, and -1 is the last vertex");
     assert_eq!(s.primitive_count(), 1 + 1 + 1 + 2 + 1 + 1 + 1 + 2);
     assert_eq!(s.shutter().max, 3.0);
 }
@@ -94,10 +82,7 @@ fn every_tag() {
 #[test]
 fn malformed_files_name_file_line_column_and_what_was_expected() {
     let cases: &[(&str, &str)] = &[
-        (
-            "v\nfrom 0 0 x",
-            "bad.p3f:2:10: expected a number (from z), found 'x'",
-        ),
+        ("v\nfrom 0 0 x", "bad.p3f:2:10: expected a number (from z), found 'x'"),
         ("v\nto 0 0 1", "bad.p3f:2:1: expected 'from', found 'to'"),
         (
             &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\ns 0 0"),
@@ -127,10 +112,7 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 16384 16384",
             "bad.p3f:1:61: resolution 16384 x 16384 exceeds 134217728 pixels",
         ),
-        (
-            &format!("{HEADER}s 0 0 0 1"),
-            "bad.p3f:8:1: 's' comes before any material: expected an 'f' entity first",
-        ),
+        (&format!("{HEADER}s 0 0 0 1"), "bad.p3f:8:1: 's' comes before any material: expected an 'f' entity first"),
         (
             &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\nmesh 3 1\n0 0 0 1 0 0 0 1 0\n1 2 4"),
             "bad.p3f:11:5: vertex index 3 of mesh triangle 1 is 4, out of range for 3 vertices",
@@ -151,14 +133,8 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\npl 0 0 0 1 1 1 2 2 2"),
             "bad.p3f:9:1: expected three plane points that are not collinear",
         ),
-        (
-            "bclr 0 0 0\n",
-            "bad.p3f:2:1: expected a camera ('v' entity), found none in the file",
-        ),
-        (
-            &format!("{HEADER}f 1 1 1"),
-            "bad.p3f:8:8: expected a number (Kd), found the end of the file",
-        ),
+        ("bclr 0 0 0\n", "bad.p3f:2:1: expected a camera ('v' entity), found none in the file"),
+        (&format!("{HEADER}f 1 1 1"), "bad.p3f:8:8: expected a number (Kd), found the end of the file"),
         (
             "v from 0 0 5 at 0 0 5 up 0 1 0 angle 45 hither 0 resolution 4 4",
             "bad.p3f:1:26: expected 'from' != 'at' and 'up' not parallel to the view direction",
@@ -167,10 +143,7 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 180 hither 0 resolution 4 4",
             "bad.p3f:1:38: expected an angle in (0, 180) degrees, found '180'",
         ),
-        (
-            "accel 7",
-            "bad.p3f:1:7: expected accelerator (0 none, 1 grid, 2 BVH) in 0..=2, found '7'",
-        ),
+        ("accel 7", "bad.p3f:1:7: expected accelerator (0 none, 1 grid, 2 BVH) in 0..=2, found '7'"),
     ];
     for (text, expected) in cases {
         assert_eq!(&err(text), expected, "for input:\n{text}");
@@ -180,19 +153,11 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
 #[test]
 fn errors_are_values_with_positions() {
     let e = parse("v\nfrom 0 0 x", "f.p3f", &LoadOptions::default()).unwrap_err();
-    let SceneError::Syntax {
-        file, line, column, ..
-    } = e
-    else {
-        panic!("a syntax error")
-    };
+    let SceneError::Syntax { file, line, column, .. } = e else { panic!("a syntax error") };
     assert_eq!((file.as_str(), line, column), ("f.p3f", 2, 10));
     let missing = load(Path::new("/nonexistent/scene.p3f"), &LoadOptions::default()).unwrap_err();
     assert!(matches!(missing, SceneError::Io { .. }));
-    assert!(
-        missing.to_string().starts_with("/nonexistent/scene.p3f: "),
-        "{missing}"
-    );
+    assert!(missing.to_string().starts_with("/nonexistent/scene.p3f: "), "{missing}");
 }
 
 #[test]
@@ -201,21 +166,9 @@ fn unknown_tags_warn_and_strict_makes_them_errors() {
     let (scene, warnings) = parse(&text, "w.p3f", &LoadOptions::default()).unwrap();
     assert_eq!(warnings.len(), 1);
     assert_eq!((warnings[0].line, warnings[0].column), (9, 1));
-    assert!(
-        warnings[0]
-            .to_string()
-            .starts_with("w.p3f:9:1: warning: unknown tag 'ms'"),
-        "{}",
-        warnings[0]
-    );
-    assert_eq!(
-        scene.objects.len(),
-        1,
-        "the numbers of the unknown tag are skipped, the sphere is kept"
-    );
-    let e = parse(&text, "w.p3f", &LoadOptions { strict: true })
-        .unwrap_err()
-        .to_string();
+    assert!(warnings[0].to_string().starts_with("w.p3f:9:1: warning: unknown tag 'ms'"), "{}", warnings[0]);
+    assert_eq!(scene.objects.len(), 1, "the numbers of the unknown tag are skipped, the sphere is kept");
+    let e = parse(&text, "w.p3f", &LoadOptions { strict: true }).unwrap_err().to_string();
     assert!(e.starts_with("w.p3f:9:1: unknown tag 'ms'"), "{e}");
 }
 
@@ -246,8 +199,7 @@ fn every_course_scene_loads_and_round_trips() {
         if path.extension().is_none_or(|e| e != "p3f") {
             continue;
         }
-        let (scene, warnings) =
-            load(&path, &LoadOptions { strict: true }).unwrap_or_else(|e| panic!("{e}"));
+        let (scene, warnings) = load(&path, &LoadOptions { strict: true }).unwrap_or_else(|e| panic!("{e}"));
         assert!(warnings.is_empty());
         assert!(!scene.objects.is_empty(), "{}", path.display());
         let text = scene.to_p3f();
@@ -263,15 +215,9 @@ fn dragon_has_its_hundred_thousand_triangles() {
     let Some(shared) = shared() else { return };
     let start = std::time::Instant::now();
     let (scene, _) = load(&shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap();
-    println!(
-        "dragon.p3f loaded in {:.3} s",
-        start.elapsed().as_secs_f64()
-    );
+    println!("dragon.p3f loaded in {:.3} s", start.elapsed().as_secs_f64());
     let mesh = scene.objects.iter().find_map(|o| match &o.shape {
-        Shape::Mesh {
-            vertices,
-            triangles,
-        } => Some((vertices.len(), triangles.len())),
+        Shape::Mesh { vertices, triangles } => Some((vertices.len(), triangles.len())),
         _ => None,
     });
     assert_eq!(mesh, Some((50_000, 100_000)));
@@ -281,45 +227,22 @@ fn dragon_has_its_hundred_thousand_triangles() {
 fn built_scene_round_trips_through_text() {
     use raylume_material::Phong;
     let scene = raylume_scene::SceneBuilder::new()
-        .camera(
-            Vec3A::new(0.1, 0.2, 5.3),
-            Vec3A::ZERO,
-            Vec3A::Y,
-            33.3,
-            17,
-            9,
-        )
+        .camera(Vec3A::new(0.1, 0.2, 5.3), Vec3A::ZERO, Vec3A::Y, 33.3, 17, 9)
         .background(Vec3::new(0.1, 0.7, 1.0 / 3.0))
         .env("skybox")
         .light(Vec3A::new(1.0 / 7.0, 2.0, 3.0), Vec3::new(0.3, 0.4, 0.5))
-        .material(Phong {
-            diffuse: Vec3::new(0.123_456_79, 0.5, 1e-7),
-            kd: 0.3,
-            ..Phong::default()
-        })
+        .material(Phong { diffuse: Vec3::new(0.123_456_79, 0.5, 1e-7), kd: 0.3, ..Phong::default() })
         .sphere(Vec3A::new(1e-20, -3.5, 2e10), 0.25)
         .aabox(Vec3A::ZERO, Vec3A::ONE)
-        .material(Phong {
-            transmittance: 0.9,
-            ior: 1.5,
-            ..Phong::default()
-        })
+        .material(Phong { transmittance: 0.9, ior: 1.5, ..Phong::default() })
         .triangle(Vec3A::ZERO, Vec3A::X, Vec3A::Y)
         .plane([Vec3A::ZERO, Vec3A::X, Vec3A::Z])
-        .mesh(
-            vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y, Vec3A::ONE],
-            vec![[0, 1, 2], [1, 3, 2]],
-        )
+        .mesh(vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y, Vec3A::ONE], vec![[0, 1, 2], [1, 3, 2]])
         .accel_hint(1)
         .spp_hint(4)
         .build()
         .unwrap();
     let (again, _) = parse(&scene.to_p3f(), "rt.p3f", &LoadOptions::default()).unwrap();
     assert_eq!(again, scene);
-    assert!(
-        raylume_scene::SceneBuilder::new()
-            .sphere(Vec3A::ZERO, 1.0)
-            .build()
-            .is_err()
-    );
+    assert!(raylume_scene::SceneBuilder::new().sphere(Vec3A::ZERO, 1.0).build().is_err());
 }

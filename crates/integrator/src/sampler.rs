@@ -1,0 +1,279 @@
+//! Samplers: where in the pixel, on the lens, on an area light and in the shutter each camera sample
+//! falls.
+//!
+//! Every sample's numbers depend only on the seed, the pixel and the sample's index, so an image is
+//! the same whatever the thread count or tile order, and a crop renders exactly the full image's
+//! pixels.
+
+use rand_core::Rng;
+use rand_pcg::Pcg32;
+use raylume_geometry::{Vec2, Vec3A};
+
+/// Makes the sample sources of each pixel.
+pub trait Sampler: Sync + Send {
+    /// The per-sample source of numbers.
+    type Source: SampleSource;
+
+    /// Samples per pixel.
+    fn samples_per_pixel(&self) -> u32;
+
+    /// The source of sample `index` of pixel `(x, y)` (y counted from the bottom row).
+    fn begin(&self, x: u32, y: u32, index: u32) -> Self::Source;
+}
+
+/// The numbers of one camera sample, one method per dimension the renderer uses.
+pub trait SampleSource {
+    /// Position within the pixel, in `[0, 1)^2`.
+    fn film(&mut self) -> Vec2;
+    /// Position on an area light, in `[0, 1)^2`.
+    fn light(&mut self) -> Vec2;
+    /// Position on the lens, in `[0, 1)^2`.
+    fn lens(&mut self) -> Vec2;
+    /// Fraction of the shutter interval, in `[0, 1)`.
+    fn time(&mut self) -> f32;
+    /// Three fresh uniform numbers in `[0, 1)` (fuzzy reflections draw as many as they need).
+    fn uniform3(&mut self) -> Vec3A;
+}
+
+/// One sample at the centre of each pixel (no antialiasing); the other dimensions are uniform random.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Centre {
+    seed: u64,
+}
+
+impl Centre {
+    /// The sampler for a seed.
+    pub fn new(seed: u64) -> Self {
+        Self { seed }
+    }
+}
+
+/// Every dimension uniform and independent: the baseline the stratified samplers are measured against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Independent {
+    seed: u64,
+    spp: u32,
+}
+
+impl Independent {
+    /// `spp` independent samples per pixel.
+    pub fn new(seed: u64, spp: u32) -> Self {
+        Self { seed, spp: spp.max(1) }
+    }
+}
+
+/// The course's jittered sampler: `n x n` strata per pixel with one random point in each. The area
+/// light sample shares the pixel sample's stratum (as the course ties them); the lens and the shutter
+/// are stratified too, through their own random permutation of the strata per pixel, so no two
+/// dimensions are correlated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Jittered {
+    seed: u64,
+    n: u32,
+}
+
+impl Jittered {
+    /// `n x n` samples per pixel.
+    pub fn new(seed: u64, n: u32) -> Self {
+        Self { seed, n: n.max(1) }
+    }
+}
+
+/// Random numbers of one sample, seeded by (seed, pixel, index).
+#[derive(Clone, Debug)]
+pub struct Source {
+    rng: Pcg32,
+    /// Stratum of the sample and strata per side (1 for unstratified samplers).
+    stratum: u32,
+    n: u32,
+    /// Per-pixel scrambles for the lens and time permutations.
+    scramble: u32,
+    centre: bool,
+}
+
+impl Source {
+    fn new(seed: u64, x: u32, y: u32, index: u32, n: u32, centre: bool) -> Self {
+        let pixel = ((y as u64) << 32) | x as u64;
+        let key = splitmix(seed ^ splitmix(pixel ^ splitmix(index as u64 + 1)));
+        let pixel_key = splitmix(seed ^ splitmix(pixel)) as u32;
+        Self { rng: Pcg32::new(key, 0x0a02_bdbf_7bb3_c0a7), stratum: index, n, scramble: pixel_key, centre }
+    }
+
+    #[inline]
+    fn u(&mut self) -> f32 {
+        (self.rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    #[inline]
+    fn u2(&mut self) -> Vec2 {
+        Vec2::new(self.u(), self.u())
+    }
+
+    #[inline]
+    fn stratified(&mut self, stratum: u32) -> Vec2 {
+        let n = self.n as f32;
+        (Vec2::new((stratum % self.n) as f32, (stratum / self.n) as f32) + self.u2()) / n
+    }
+}
+
+impl SampleSource for Source {
+    #[inline]
+    fn film(&mut self) -> Vec2 {
+        if self.centre { Vec2::splat(0.5) } else { self.stratified(self.stratum) }
+    }
+
+    #[inline]
+    fn light(&mut self) -> Vec2 {
+        self.stratified(self.stratum)
+    }
+
+    #[inline]
+    fn lens(&mut self) -> Vec2 {
+        let s = permute(self.stratum, self.n * self.n, self.scramble ^ 0x51ed_270b);
+        self.stratified(s)
+    }
+
+    #[inline]
+    fn time(&mut self) -> f32 {
+        let count = self.n * self.n;
+        let s = permute(self.stratum, count, self.scramble ^ 0x2545_f491);
+        (s as f32 + self.u()) / count as f32
+    }
+
+    #[inline]
+    fn uniform3(&mut self) -> Vec3A {
+        Vec3A::new(self.u(), self.u(), self.u())
+    }
+}
+
+impl Sampler for Centre {
+    type Source = Source;
+    fn samples_per_pixel(&self) -> u32 {
+        1
+    }
+    #[inline]
+    fn begin(&self, x: u32, y: u32, index: u32) -> Source {
+        Source::new(self.seed, x, y, index, 1, true)
+    }
+}
+
+impl Sampler for Independent {
+    type Source = Source;
+    fn samples_per_pixel(&self) -> u32 {
+        self.spp
+    }
+    #[inline]
+    fn begin(&self, x: u32, y: u32, index: u32) -> Source {
+        // One stratum covering everything: each dimension is a plain uniform draw.
+        let mut s = Source::new(self.seed, x, y, index, 1, false);
+        s.stratum = 0;
+        s
+    }
+}
+
+impl Sampler for Jittered {
+    type Source = Source;
+    fn samples_per_pixel(&self) -> u32 {
+        self.n * self.n
+    }
+    #[inline]
+    fn begin(&self, x: u32, y: u32, index: u32) -> Source {
+        Source::new(self.seed, x, y, index, self.n, false)
+    }
+}
+
+pub(crate) fn splitmix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A pseudo-random permutation of `0..len` chosen by `key`, without memory (Kensler,
+/// "Correlated Multi-Jittered Sampling", 2013): a hash applied until it lands inside the range.
+#[inline]
+pub fn permute(mut i: u32, len: u32, key: u32) -> u32 {
+    if len <= 1 {
+        return 0;
+    }
+    let mut w = len - 1;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= key;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= key >> 16;
+        i ^= (i & w) >> 4;
+        i ^= key >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= key >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | key >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < len {
+            break;
+        }
+    }
+    (i.wrapping_add(key)) % len
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permute_is_a_permutation() {
+        for len in [1u32, 2, 3, 16, 17, 100, 256] {
+            for key in [0u32, 1, 0xdead_beef] {
+                let mut seen = vec![false; len as usize];
+                for i in 0..len {
+                    let p = permute(i, len, key) as usize;
+                    assert!(!seen[p], "len {len} key {key}: {p} twice");
+                    seen[p] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn jittered_puts_one_sample_in_each_stratum_of_every_dimension() {
+        let s = Jittered::new(3, 4);
+        let mut film = [0u32; 16];
+        let mut lens = [0u32; 16];
+        let mut time = [0u32; 16];
+        for i in 0..16 {
+            let mut src = s.begin(5, 7, i);
+            let f = src.film();
+            let l = src.light();
+            // The light shares the film's stratum.
+            assert_eq!(((f.x * 4.0) as u32, (f.y * 4.0) as u32), ((l.x * 4.0) as u32, (l.y * 4.0) as u32));
+            film[(f.x * 4.0) as usize + 4 * (f.y * 4.0) as usize] += 1;
+            let le = src.lens();
+            lens[(le.x * 4.0) as usize + 4 * (le.y * 4.0) as usize] += 1;
+            time[(src.time() * 16.0) as usize] += 1;
+        }
+        assert!(film.iter().chain(&lens).chain(&time).all(|&c| c == 1));
+    }
+
+    #[test]
+    fn samples_depend_only_on_seed_pixel_and_index() {
+        let s = Jittered::new(9, 3);
+        let a: Vec<Vec2> = (0..9).map(|i| s.begin(10, 20, i).film()).collect();
+        let b: Vec<Vec2> =
+            (0..9).rev().map(|i| s.begin(10, 20, i).film()).collect::<Vec<_>>().into_iter().rev().collect();
+        assert_eq!(a, b);
+        assert_ne!(s.begin(10, 20, 0).film(), Jittered::new(10, 3).begin(10, 20, 0).film());
+        assert_ne!(s.begin(10, 20, 0).uniform3(), s.begin(11, 20, 0).uniform3());
+    }
+}
