@@ -114,4 +114,8 @@ impl Material for Phong {
     fn dielectric(&self) -> Option<Dielectric> {
         (self.transmittance > 0.0).then_some(Dielectric { transmittance: self.transmittance, ior: self.ior })
     }
+    #[inline]
+    fn roughness(&self) -> f32 {
+        self.roughness
+    }
 }
