@@ -64,7 +64,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             let to_light = target - above;
             let dist = to_light.length();
             let wi = to_light / dist;
-            if !(n.dot(wi) > 0.0) {
+            if dist == 0.0 || n.dot(wi) <= 0.0 {
                 return None;
             }
             stats.shadow += 1;
