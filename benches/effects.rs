@@ -55,7 +55,12 @@ fn effects(c: &mut Criterion) {
     let with_spp = |spp| RenderOptions { settings: RenderSettings { spp, ..base.settings }, ..base.clone() };
     let cases: Vec<(&str, &str, RenderOptions, RenderOptions)> = vec![
         ("antialiasing", "antialiasing_16spp", with_spp(16), base.clone()),
-        ("soft_shadows", "soft_shadows_grid", base.clone(), RenderOptions { area_light_size: Some(0.0), ..base.clone() }),
+        (
+            "soft_shadows",
+            "soft_shadows_grid",
+            base.clone(),
+            RenderOptions { area_light_size: Some(0.0), ..base.clone() },
+        ),
         (
             "soft_shadows",
             "soft_shadows_stratified_16spp",
@@ -63,13 +68,20 @@ fn effects(c: &mut Criterion) {
             RenderOptions { area_light_size: Some(0.0), ..with_spp(16) },
         ),
         ("depth_of_field", "depth_of_field", base.clone(), RenderOptions { aperture: Some(0.0), ..base.clone() }),
-        ("fuzzy_reflections", "fuzzy_reflections", base.clone(), RenderOptions { roughness: Some(0.0), ..base.clone() }),
+        (
+            "fuzzy_reflections",
+            "fuzzy_reflections",
+            base.clone(),
+            RenderOptions { roughness: Some(0.0), ..base.clone() },
+        ),
         ("motion_blur", "motion_blur", base.clone(), RenderOptions { shutter: Some((0.0, 0.0)), ..base.clone() }),
     ];
     for (scene_name, label, on, off) in cases {
         let scene = load(scene_name);
         group.bench_function(format!("{label}/on"), |b| b.iter(|| pool.install(|| scene.render(&on, &|| {}).unwrap())));
-        group.bench_function(format!("{label}/off"), |b| b.iter(|| pool.install(|| scene.render(&off, &|| {}).unwrap())));
+        group.bench_function(format!("{label}/off"), |b| {
+            b.iter(|| pool.install(|| scene.render(&off, &|| {}).unwrap()))
+        });
     }
     group.finish();
 }

@@ -133,3 +133,60 @@ fn compare_reports_rmse() {
     let run = raylume().arg("compare").arg(&a).arg(&b).output().unwrap();
     assert_eq!(String::from_utf8_lossy(&run.stdout).trim(), "rmse 0.000000 (0.000 of 255)");
 }
+
+#[test]
+fn effects_from_the_command_line_and_crops_match_the_full_image() {
+    let dir = temp_dir("effects");
+    let scene = dir.join("e.p3f");
+    std::fs::write(
+        &scene,
+        "v from 0 1 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 24 16\nl 2 4 3 1 1 1\n\
+         f 0.8 0.8 0.8 0.9 1 1 1 0.5 30 0 1\npl 0 -1 0 0 -1 -1 -1 -1 0\nsm -0.5 0 0 0.5 0 0 0.6 0 1\n",
+    )
+    .unwrap();
+    let args = ["--spp", "4", "--area-light", "1", "--roughness", "0.2", "--aperture", "2", "--focal", "1"];
+    let full = dir.join("full.pfm");
+    let run = raylume().arg("render").arg(&scene).args(args).arg("-o").arg(&full).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("effects: antialiasing, soft shadows, depth of field, fuzzy reflections, motion blur"),
+        "{stderr}"
+    );
+    let part = dir.join("part.pfm");
+    let run = raylume()
+        .arg("render")
+        .arg(&scene)
+        .args(args)
+        .args(["--crop", "5", "3", "17", "11", "-o"])
+        .arg(&part)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    // PFM rows are stored bottom first; compare the cropped rows with the full image's.
+    let read = |p: &std::path::Path| {
+        let bytes = std::fs::read(p).unwrap();
+        let header_end = bytes.iter().enumerate().filter(|(_, b)| **b == b'\n').nth(2).unwrap().0 + 1;
+        let floats: Vec<f32> =
+            bytes[header_end..].chunks(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        floats
+    };
+    let (full, part) = (read(&full), read(&part));
+    assert_eq!(part.len(), 12 * 8 * 3);
+    for row in 0..8usize {
+        for col in 0..12usize {
+            // Row `row` of the crop from the top is row 3 + row of the full image; PFM stores bottom first.
+            let p = ((7 - row) * 12 + col) * 3;
+            let f = ((15 - (3 + row)) * 24 + 5 + col) * 3;
+            assert_eq!(&part[p..p + 3], &full[f..f + 3], "pixel ({col}, {row}) of the crop");
+        }
+    }
+    let run = raylume()
+        .arg("render")
+        .arg(&scene)
+        .args(["--crop", "5", "3", "5", "11", "-o"])
+        .arg(dir.join("x.png"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+}
