@@ -110,7 +110,7 @@ fn images_are_identical_whatever_the_thread_count() {
     assert_ne!(one.film.pixels(), other.film.pixels());
 }
 
-/// The brute-force list and the BVH render the same image.
+/// Every accelerator renders the same image as the brute-force list.
 #[test]
 fn accelerators_render_identical_images() {
     let (scene, _) = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap();
@@ -118,7 +118,10 @@ fn accelerators_render_identical_images() {
         let o = RenderOptions { accel: Some(accel), resolution: Some((80, 50)), ..RenderOptions::default() };
         scene.render(&o, &|| {}).unwrap().film
     };
-    assert_eq!(render(AccelKind::None).pixels(), render(AccelKind::Bvh).pixels());
+    let reference = render(AccelKind::None);
+    for kind in [AccelKind::Bvh, AccelKind::BvhMidpoint, AccelKind::Grid] {
+        assert_eq!(reference.pixels(), render(kind).pixels(), "{kind:?}");
+    }
 }
 
 /// Every course scene renders at a small size, without error, and not as a flat image.

@@ -1,7 +1,7 @@
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Intersect;
 
-use crate::{Accelerator, PrimitiveHit};
+use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
 /// Tests every primitive: the reference for correctness, and the fastest choice for a handful of them.
 #[derive(Clone, Debug)]
@@ -22,9 +22,10 @@ impl<P: Intersect> BruteForce<P> {
 }
 
 impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
-    fn closest_hit(&self, ray: &Ray, mut t_range: Interval) -> Option<PrimitiveHit> {
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         let mut best = None;
         for (i, p) in self.prims.iter().enumerate() {
+            tally.tested();
             if let Some(hit) = p.intersect(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
                 best = Some(PrimitiveHit { hit, primitive: i as u32 });
@@ -33,11 +34,18 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
         best
     }
 
-    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        self.prims.iter().any(|p| p.occluded(ray, t_max))
+    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        self.prims.iter().any(|p| {
+            tally.tested();
+            p.occluded(ray, t_max)
+        })
     }
 
     fn bounds(&self) -> Aabb {
         self.prims.iter().map(Intersect::bounds).filter(Aabb::is_finite).fold(Aabb::EMPTY, Aabb::union)
+    }
+
+    fn stats(&self) -> AccelStats {
+        AccelStats { nodes: 0, bytes: std::mem::size_of_val(self.prims.as_slice()), primitives: self.prims.len() }
     }
 }

@@ -3,7 +3,7 @@
 use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::Intersect;
 
-use crate::{Accelerator, PrimitiveHit};
+use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
 /// Number of SAH bins per axis.
 const BINS: usize = 12;
@@ -13,6 +13,18 @@ const MAX_LEAF: usize = 8;
 const TRAVERSAL_COST: f32 = 0.5;
 /// Depth of the traversal stack (the build never goes deeper than this).
 const STACK: usize = 64;
+
+/// How a [`Bvh`] chooses its splits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhBuild {
+    /// Binned surface area heuristic (12 bins on the largest centroid axis); the SAH also decides
+    /// when to stop (leaves of up to 8 primitives).
+    #[default]
+    Sah,
+    /// The course's build: split the node's largest axis at its midpoint, fall back to the mean of the
+    /// centroids when one side would be empty, leaves of at most 2 primitives.
+    Midpoint,
+}
 
 /// One node: its bounds and either the range of its primitives (leaf) or the index of its second
 /// child (inner node; the first child follows it directly).
@@ -59,8 +71,14 @@ struct BuildItem {
 }
 
 impl<P: Intersect + Clone> Bvh<P> {
-    /// Builds the hierarchy over `prims`; moving primitives are bounded over all of `shutter`.
+    /// Builds the hierarchy over `prims` with binned SAH; moving primitives are bounded over all of
+    /// `shutter`.
     pub fn new(prims: Vec<P>, shutter: Interval) -> Self {
+        Self::with_build(prims, shutter, BvhBuild::Sah)
+    }
+
+    /// Builds the hierarchy with the given method.
+    pub fn with_build(prims: Vec<P>, shutter: Interval, method: BvhBuild) -> Self {
         let mut items = Vec::with_capacity(prims.len());
         let mut unbounded = Vec::new();
         for (i, p) in prims.iter().enumerate() {
@@ -75,7 +93,7 @@ impl<P: Intersect + Clone> Bvh<P> {
         }
         let mut nodes = Vec::with_capacity((2 * items.len()).max(1));
         if !items.is_empty() {
-            build(&mut items, &mut nodes, 0, 0);
+            build(&mut items, &mut nodes, 0, 0, method);
         }
         let bounds = nodes.first().map_or(Aabb::EMPTY, Node::aabb);
         let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
@@ -92,7 +110,7 @@ impl<P: Intersect + Clone> Bvh<P> {
 /// Depth past which splits are object medians, so the depth stays below [`STACK`] for any input.
 const MEDIAN_DEPTH: usize = 36;
 
-fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: usize) -> usize {
+fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: usize, method: BvhBuild) -> usize {
     let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
     let me = nodes.len();
     nodes.push(Node {
@@ -107,6 +125,19 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
         return me;
     }
     let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
+    if method == BvhBuild::Midpoint {
+        if n <= MIDPOINT_LEAF {
+            return me;
+        }
+        let (axis, mid) = if depth < MEDIAN_DEPTH {
+            midpoint_split(items, &bounds, &cb)
+        } else {
+            let axis = cb.longest_axis();
+            items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+            (axis, n / 2)
+        };
+        return finish_inner(items, nodes, me, first, depth, method, axis, mid);
+    }
     let axis = cb.longest_axis();
     let extent = cb.diagonal()[axis];
     let mid = if extent <= 0.0 {
@@ -126,14 +157,59 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
             }
         }
     };
+    finish_inner(items, nodes, me, first, depth, method, axis, mid)
+}
+
+/// Builds both children of node `me` from `items` split at `mid` and makes `me` an inner node.
+#[allow(clippy::too_many_arguments)]
+fn finish_inner(
+    items: &mut [BuildItem],
+    nodes: &mut Vec<Node>,
+    me: usize,
+    first: usize,
+    depth: usize,
+    method: BvhBuild,
+    axis: usize,
+    mid: usize,
+) -> usize {
     let (left, right) = items.split_at_mut(mid);
-    build(left, nodes, first, depth + 1);
-    let second = build(right, nodes, first + mid, depth + 1);
+    build(left, nodes, first, depth + 1, method);
+    let second = build(right, nodes, first + mid, depth + 1, method);
     let node = &mut nodes[me];
     node.offset = second as u32;
     node.count = 0;
     node.axis = axis as u16;
     me
+}
+
+/// Largest leaf of the course's build.
+const MIDPOINT_LEAF: usize = 2;
+
+/// The course's split: the midpoint of the node's largest axis; if every centroid falls on one side,
+/// the mean of the centroids on that axis; if they all coincide, half of the primitives each side.
+fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> (usize, usize) {
+    let n = items.len();
+    let axis = bounds.longest_axis();
+    let partition = |items: &mut [BuildItem], at: f32| {
+        let mut mid = 0;
+        for i in 0..items.len() {
+            if items[i].centroid[axis] < at {
+                items.swap(i, mid);
+                mid += 1;
+            }
+        }
+        mid
+    };
+    let mut mid = partition(items, bounds.centroid()[axis]);
+    if mid == 0 || mid == n {
+        let mean = items.iter().map(|it| it.centroid[axis]).sum::<f32>() / n as f32;
+        mid = partition(items, mean);
+    }
+    if mid == 0 || mid == n || cb.diagonal().max_element() <= 0.0 {
+        // All centroids coincide: no position separates them.
+        mid = n / 2;
+    }
+    (axis, mid)
 }
 
 /// Partitions `items` at the cheapest SAH bin boundary on `axis`; `None` if a leaf is cheaper.
@@ -191,9 +267,10 @@ fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, axis: usize, ext
 }
 
 impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
-    fn closest_hit(&self, ray: &Ray, mut t_range: Interval) -> Option<PrimitiveHit> {
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         let mut best = None;
         for (p, id) in &self.unbounded {
+            tally.tested();
             if let Some(hit) = p.intersect(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
                 best = Some(PrimitiveHit { hit, primitive: *id });
@@ -213,6 +290,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 if node.count > 0 {
                     let start = node.offset as usize;
                     for i in start..start + node.count as usize {
+                        tally.tested();
                         if let Some(hit) = self.prims[i].intersect(ray, t_range) {
                             t_range = t_range.with_max(hit.t);
                             best = Some(PrimitiveHit { hit, primitive: self.ids[i] });
@@ -240,8 +318,11 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         best
     }
 
-    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        if self.unbounded.iter().any(|(p, _)| p.occluded(ray, t_max)) {
+    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        if self.unbounded.iter().any(|(p, _)| {
+            tally.tested();
+            p.occluded(ray, t_max)
+        }) {
             return true;
         }
         if self.nodes.is_empty() {
@@ -256,7 +337,10 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             if node.aabb().hit_range(ray, inv, 0.0, t_max).is_some() {
                 if node.count > 0 {
                     let start = node.offset as usize;
-                    if self.prims[start..start + node.count as usize].iter().any(|p| p.occluded(ray, t_max)) {
+                    if self.prims[start..start + node.count as usize].iter().any(|p| {
+                        tally.tested();
+                        p.occluded(ray, t_max)
+                    }) {
                         return true;
                     }
                 } else {
@@ -276,5 +360,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
 
     fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    fn stats(&self) -> AccelStats {
+        let bytes = std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.prims.as_slice())
+            + std::mem::size_of_val(self.ids.as_slice())
+            + self.unbounded.len() * std::mem::size_of::<(P, u32)>();
+        AccelStats { nodes: self.nodes.len(), bytes, primitives: self.prims.len() + self.unbounded.len() }
     }
 }

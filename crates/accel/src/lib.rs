@@ -1,5 +1,6 @@
-//! Acceleration structures for raylume behind one [`Accelerator`] trait: [`BruteForce`] (the reference)
-//! and [`Bvh`] (a binned-SAH bounding volume hierarchy).
+//! Acceleration structures for raylume behind one [`Accelerator`] trait: [`BruteForce`] (the reference),
+//! [`Bvh`] (a flattened bounding volume hierarchy, binned-SAH or the course's midpoint build) and
+//! [`Grid`] (a uniform grid with 3D-DDA traversal and per-ray mailboxing).
 //!
 //! ```
 //! use raylume_accel::{Accelerator, BruteForce};
@@ -18,9 +19,11 @@
 
 mod brute;
 mod bvh;
+mod grid;
 
 pub use brute::BruteForce;
-pub use bvh::Bvh;
+pub use bvh::{Bvh, BvhBuild};
+pub use grid::{Grid, GridParams};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Hit;
 
@@ -34,18 +37,64 @@ pub struct PrimitiveHit {
     pub primitive: u32,
 }
 
+/// Counts the primitives a query tests. `()` counts nothing (the render path); `u64` counts.
+pub trait Tally {
+    /// Records that one primitive was tested.
+    fn tested(&mut self);
+}
+
+impl Tally for () {
+    #[inline(always)]
+    fn tested(&mut self) {}
+}
+
+impl Tally for u64 {
+    #[inline(always)]
+    fn tested(&mut self) {
+        *self += 1;
+    }
+}
+
+/// Size figures of a built structure.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AccelStats {
+    /// Nodes (BVH) or cells (grid).
+    pub nodes: usize,
+    /// Bytes of the structure, primitives included.
+    pub bytes: usize,
+    /// Primitives held.
+    pub primitives: usize,
+}
+
 /// A structure that answers ray queries over a set of primitives.
 ///
-/// Built once from the primitives, then shared read-only by every rendering thread.
+/// Built once from the primitives, then shared read-only by every rendering thread. Implementors
+/// write the tallying queries; the plain ones are those with a tally that counts nothing, so the
+/// counting costs the render path nothing.
 pub trait Accelerator: Sync + Send {
-    /// The closest hit with `t` in `t_range`.
-    fn closest_hit(&self, ray: &Ray, t_range: Interval) -> Option<PrimitiveHit>;
+    /// The closest hit with `t` in `t_range`, counting primitive tests in `tally`.
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, t_range: Interval, tally: &mut T) -> Option<PrimitiveHit>;
 
-    /// Whether any primitive is hit with `t` in `(0, t_max)` (shadow rays: stops at the first hit).
-    fn occluded(&self, ray: &Ray, t_max: f32) -> bool;
+    /// Whether any primitive is hit with `t` in `(0, t_max)`, counting primitive tests in `tally`.
+    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool;
 
     /// The bounds of every bounded primitive.
     fn bounds(&self) -> Aabb;
+
+    /// Size figures of the structure.
+    fn stats(&self) -> AccelStats;
+
+    /// The closest hit with `t` in `t_range`.
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, t_range: Interval) -> Option<PrimitiveHit> {
+        self.closest_hit_tally(ray, t_range, &mut ())
+    }
+
+    /// Whether any primitive is hit with `t` in `(0, t_max)` (shadow rays: stops at the first hit).
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        self.occluded_tally(ray, t_max, &mut ())
+    }
 }
 
 /// Which accelerator to build, chosen at run time.
@@ -53,9 +102,11 @@ pub trait Accelerator: Sync + Send {
 pub enum AccelKind {
     /// A plain list: every primitive is tested by every ray.
     None,
-    /// A bounding volume hierarchy (binned SAH).
+    /// A bounding volume hierarchy built with binned SAH.
     #[default]
     Bvh,
-    /// A uniform grid (not yet built: falls back to the BVH).
+    /// The course's BVH: midpoint splits of the largest axis, leaves of at most 2 primitives.
+    BvhMidpoint,
+    /// A uniform grid with mailboxing.
     Grid,
 }

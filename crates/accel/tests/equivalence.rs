@@ -1,8 +1,10 @@
-//! The BVH returns the same closest hit and the same occlusion answers as the brute-force list.
+//! Every accelerator returns the same closest hit and the same occlusion answers as the brute-force
+//! list: on seeded random scenes, and as a property over random spheres, triangles, boxes and rays.
 
+use proptest::prelude::*;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
-use raylume_accel::{Accelerator, BruteForce, Bvh};
+use raylume_accel::{Accelerator, BruteForce, Bvh, BvhBuild, Grid, GridParams, PrimitiveHit};
 use raylume_geometry::{AaBox, Aabb, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec3A};
 use raylume_intersect::Primitive;
 
@@ -41,8 +43,49 @@ fn random_scene(rng: &mut Pcg32, n: usize) -> Vec<Primitive> {
         .collect()
 }
 
+/// Whether two closest hits agree: the same primitive at t within 1e-6 relative, or a tie between two
+/// primitives hit at the same distance (both answers are right).
+fn same_hit(prims: &[Primitive], ray: &Ray, a: Option<PrimitiveHit>, b: Option<PrimitiveHit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            let close = (a.hit.t - b.hit.t).abs() <= 1e-6 * a.hit.t.abs().max(1e-3);
+            close
+                && (a.primitive == b.primitive || {
+                    use raylume_intersect::Intersect;
+                    let ta = prims[a.primitive as usize].intersect(ray, Interval::POSITIVE).map(|h| h.t);
+                    let tb = prims[b.primitive as usize].intersect(ray, Interval::POSITIVE).map(|h| h.t);
+                    ta == tb
+                })
+        }
+        _ => false,
+    }
+}
+
+/// A query: the closest hit of a ray, and whether it is occluded before `t_max`.
+type Query = Box<dyn Fn(&Ray, f32) -> (Option<PrimitiveHit>, bool)>;
+
+/// Every accelerator over `prims`, by name.
+fn all_accels(prims: &[Primitive], shutter: Interval) -> Vec<(&'static str, Query)> {
+    let bvh = Bvh::new(prims.to_vec(), shutter);
+    let mid = Bvh::with_build(prims.to_vec(), shutter, BvhBuild::Midpoint);
+    let grid = Grid::new(prims.to_vec(), shutter, GridParams::default());
+    let grid_no_mailbox = Grid::new(prims.to_vec(), shutter, GridParams { k: 5.0, mailbox: false });
+    vec![
+        ("bvh", Box::new(move |r: &Ray, t: f32| (bvh.closest_hit(r, Interval::POSITIVE), bvh.occluded(r, t)))),
+        ("bvh-midpoint", Box::new(move |r: &Ray, t: f32| (mid.closest_hit(r, Interval::POSITIVE), mid.occluded(r, t)))),
+        ("grid", Box::new(move |r: &Ray, t: f32| (grid.closest_hit(r, Interval::POSITIVE), grid.occluded(r, t)))),
+        (
+            "grid-k5-no-mailbox",
+            Box::new(move |r: &Ray, t: f32| {
+                (grid_no_mailbox.closest_hit(r, Interval::POSITIVE), grid_no_mailbox.occluded(r, t))
+            }),
+        ),
+    ]
+}
+
 #[test]
-fn bvh_matches_brute_force_on_random_scenes() {
+fn accelerators_match_brute_force_on_random_scenes() {
     let mut rng = Pcg32::new(7, 11);
     for (scene_index, n) in [1usize, 2, 7, 40, 300, 2000].into_iter().enumerate() {
         let mut prims = random_scene(&mut rng, n);
@@ -50,27 +93,105 @@ fn bvh_matches_brute_force_on_random_scenes() {
             prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -12.0, 0.0), normal: Vec3A::Y }));
         }
         let brute = BruteForce::new(prims.clone());
-        let bvh = Bvh::new(prims, Interval::new(0.0, 1.0));
+        let accels = all_accels(&prims, Interval::new(0.0, 1.0));
         let mut hits = 0;
         for _ in 0..3000 {
             let o = point(&mut rng, 15.0);
             let d = (point(&mut rng, 10.0) - o).normalize();
             let ray = Ray::with_time(o, d, uniform(&mut rng));
-            let a = brute.closest_hit(&ray, Interval::POSITIVE);
-            let b = bvh.closest_hit(&ray, Interval::POSITIVE);
-            match (a, b) {
-                (None, None) => {}
-                (Some(a), Some(b)) => {
-                    hits += 1;
-                    assert_eq!(a.primitive, b.primitive, "scene {n}: {ray:?}");
-                    assert!((a.hit.t - b.hit.t).abs() <= 1e-6 * a.hit.t.abs().max(1.0));
-                }
-                _ => panic!("scene of {n}: brute {a:?} vs bvh {b:?} for {ray:?}"),
-            }
             let t_max = uniform(&mut rng) * 30.0;
-            assert_eq!(brute.occluded(&ray, t_max), bvh.occluded(&ray, t_max), "occlusion, scene {n}");
+            let expected = brute.closest_hit(&ray, Interval::POSITIVE);
+            hits += expected.is_some() as usize;
+            let expected_occluded = brute.occluded(&ray, t_max);
+            for (name, query) in &accels {
+                let (got, occluded) = query(&ray, t_max);
+                assert!(
+                    same_hit(&prims, &ray, expected, got),
+                    "{name}, scene of {n}: brute {expected:?} vs {got:?} for {ray:?}"
+                );
+                assert_eq!(occluded, expected_occluded, "{name}: occlusion, scene of {n}, {ray:?}");
+            }
         }
         assert!(hits > 0, "the rays must hit something in scene {n}");
+    }
+}
+
+#[test]
+fn grid_mailbox_tests_fewer_primitives() {
+    let mut rng = Pcg32::new(3, 5);
+    // Long thin triangles span many cells: the case mailboxing exists for.
+    let prims: Vec<Primitive> = (0..500)
+        .map(|_| {
+            let c = point(&mut rng, 10.0);
+            Primitive::Triangle(Triangle::new(c, c + point(&mut rng, 6.0), c + point(&mut rng, 0.3)))
+        })
+        .collect();
+    let shutter = Interval::new(0.0, 0.0);
+    let with = Grid::new(prims.clone(), shutter, GridParams { k: 8.0, mailbox: true });
+    let without = Grid::new(prims.clone(), shutter, GridParams { k: 8.0, mailbox: false });
+    let (mut a, mut b) = (0u64, 0u64);
+    for _ in 0..2000 {
+        let o = point(&mut rng, 15.0);
+        let ray = Ray::new(o, (point(&mut rng, 10.0) - o).normalize());
+        let x = with.closest_hit_tally(&ray, Interval::POSITIVE, &mut a);
+        let y = without.closest_hit_tally(&ray, Interval::POSITIVE, &mut b);
+        assert!(same_hit(&prims, &ray, x, y));
+    }
+    println!("primitives tested per ray: {:.2} with mailboxing, {:.2} without", a as f64 / 2000.0, b as f64 / 2000.0);
+    assert!((a as f64) < 0.8 * b as f64, "mailboxing must save tests: {a} vs {b}");
+}
+
+fn arb_point(range: f32) -> impl Strategy<Value = Vec3A> {
+    (-range..range, -range..range, -range..range).prop_map(|(x, y, z)| Vec3A::new(x, y, z))
+}
+
+fn arb_primitive() -> impl Strategy<Value = Primitive> {
+    prop_oneof![
+        (arb_point(8.0), 0.05f32..2.0).prop_map(|(c, r)| Primitive::Sphere(Sphere { center: c, radius: r })),
+        (arb_point(8.0), arb_point(2.0), arb_point(2.0)).prop_map(|(a, b, c)| Primitive::Triangle(Triangle::new(
+            a,
+            a + b,
+            a + c
+        ))),
+        (arb_point(8.0), arb_point(1.5))
+            .prop_map(|(a, s)| Primitive::Box(AaBox { bounds: Aabb::new(a, a + s.abs() + Vec3A::splat(0.01)) })),
+    ]
+}
+
+fn arb_ray() -> impl Strategy<Value = Ray> {
+    (arb_point(12.0), arb_point(1.0), prop_oneof![Just(0u8), Just(1), Just(2), Just(3)]).prop_filter_map(
+        "non-zero direction",
+        |(o, d, axis)| {
+            // Some rays run exactly along an axis (zero components), the rest anywhere.
+            let d = match axis {
+                1 => Vec3A::new(d.x, 0.0, 0.0),
+                2 => Vec3A::new(0.0, -0.0, d.z),
+                _ => d,
+            };
+            (d.length() > 1e-3).then(|| Ray::new(o, d.normalize()))
+        },
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// All accelerators agree with brute force on random scenes and rays.
+    #[test]
+    fn accelerators_agree_with_brute_force(prims in prop::collection::vec(arb_primitive(), 1..60),
+                                           rays in prop::collection::vec(arb_ray(), 1..40),
+                                           t_max in 0.1f32..40.0) {
+        let brute = BruteForce::new(prims.clone());
+        let accels = all_accels(&prims, Interval::new(0.0, 0.0));
+        for ray in &rays {
+            let expected = brute.closest_hit(ray, Interval::POSITIVE);
+            let expected_occluded = brute.occluded(ray, t_max);
+            for (name, query) in &accels {
+                let (got, occluded) = query(ray, t_max);
+                prop_assert!(same_hit(&prims, ray, expected, got), "{}: brute {:?} vs {:?} for {:?}", name, expected, got, ray);
+                prop_assert_eq!(occluded, expected_occluded, "{}: occlusion for {:?}", name, ray);
+            }
+        }
     }
 }
 

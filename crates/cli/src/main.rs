@@ -46,7 +46,8 @@ struct RenderArgs {
     /// Maximum ray depth, counting the camera ray as 1.
     #[arg(long, default_value_t = 4)]
     depth: u32,
-    /// Accelerator; by default the scene's `accel` hint, else bvh.
+    /// Accelerator (bvh: binned SAH; bvh-midpoint: the course's build; grid: uniform grid with
+    /// mailboxing); by default the scene's `accel` hint, else bvh.
     #[arg(long, value_enum)]
     accel: Option<AccelArg>,
     /// Worker threads (default: all cores).
@@ -91,6 +92,9 @@ struct RenderArgs {
     /// Depth of field: the focal distance as a ratio of the view-plane distance.
     #[arg(long)]
     focal: Option<f32>,
+    /// Density of the uniform grid: about K cells per primitive.
+    #[arg(long, default_value_t = 2.0, value_name = "K")]
+    grid_k: f32,
     /// Motion blur: the shutter interval.
     #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
     shutter: Option<Vec<f32>>,
@@ -103,6 +107,7 @@ struct RenderArgs {
 enum AccelArg {
     None,
     Bvh,
+    BvhMidpoint,
     Grid,
 }
 
@@ -175,6 +180,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let accel = args.accel.map(|a| match a {
         AccelArg::None => AccelKind::None,
         AccelArg::Bvh => AccelKind::Bvh,
+        AccelArg::BvhMidpoint => AccelKind::BvhMidpoint,
         AccelArg::Grid => AccelKind::Grid,
     });
     let render_options = RenderOptions {
@@ -189,7 +195,11 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         aperture: args.aperture,
         focal: args.focal,
         shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
+        grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
     };
+    if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= 1000.0) {
+        return Err(bad_input(format!("--grid-k {}: expected a number in (0, 1000]", args.grid_k)));
+    }
     let features = scene.features(&render_options).map_err(bad_input)?;
     // Check the output's format before spending time on the render.
     let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();

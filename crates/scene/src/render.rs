@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh};
+use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Grid, GridParams};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
@@ -38,6 +38,8 @@ pub struct RenderOptions {
     pub focal: Option<f32>,
     /// Overrides the shutter interval.
     pub shutter: Option<(f32, f32)>,
+    /// How the uniform grid is sized, when it is the accelerator.
+    pub grid: GridParams,
 }
 
 impl Default for RenderOptions {
@@ -54,6 +56,7 @@ impl Default for RenderOptions {
             aperture: None,
             focal: None,
             shutter: None,
+            grid: GridParams::default(),
         }
     }
 }
@@ -299,40 +302,23 @@ impl Scene {
         };
         let background = Background { color: self.background, env };
         let Primitives { primitives, shading, vertex_normals } = self.primitives();
-        let kind = match self.accel_kind(options) {
-            // The uniform grid is not built yet: the BVH stands in for it.
-            AccelKind::Grid => AccelKind::Bvh,
-            k => k,
-        };
+        let kind = self.accel_kind(options);
         let build = Instant::now();
         let job = Job { view: &view, shutter, features, settings: &options.settings, on_row };
+        // One monomorphised path per accelerator: the world is generic over it.
+        macro_rules! run {
+            ($accel:expr) => {{
+                let world = World { accel: $accel, materials, shading, vertex_normals, lights, background };
+                let b = build.elapsed().as_secs_f64();
+                let (f, s, r) = job.with_camera(&world);
+                (f, s, b, r)
+            }};
+        }
         let (film, stats, build_seconds, render_seconds) = match kind {
-            AccelKind::None => {
-                let world = World {
-                    accel: BruteForce::new(primitives),
-                    materials,
-                    shading,
-                    vertex_normals,
-                    lights,
-                    background,
-                };
-                let b = build.elapsed().as_secs_f64();
-                let (f, s, r) = job.with_camera(&world);
-                (f, s, b, r)
-            }
-            _ => {
-                let world = World {
-                    accel: Bvh::new(primitives, shutter),
-                    materials,
-                    shading,
-                    vertex_normals,
-                    lights,
-                    background,
-                };
-                let b = build.elapsed().as_secs_f64();
-                let (f, s, r) = job.with_camera(&world);
-                (f, s, b, r)
-            }
+            AccelKind::None => run!(BruteForce::new(primitives)),
+            AccelKind::Bvh => run!(Bvh::new(primitives, shutter)),
+            AccelKind::BvhMidpoint => run!(Bvh::with_build(primitives, shutter, BvhBuild::Midpoint)),
+            AccelKind::Grid => run!(Grid::new(primitives, shutter, options.grid)),
         };
         Ok(RenderOutput { film, stats, accel: kind, features, build_seconds, render_seconds })
     }
