@@ -11,7 +11,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raylume_accel::AccelKind;
 use raylume_integrator::RenderSettings;
 use raylume_material::FresnelMode;
-use raylume_scene::{DEFAULT_SCENE, RenderOptions, Scene, p3f};
+use raylume_scene::{DEFAULT_SCENE, RenderOptions, Scene, p3f, procedural};
+
+mod bench;
 
 #[derive(Parser)]
 #[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
@@ -24,6 +26,15 @@ struct Cli {
 enum Command {
     /// Render a p3f scene (the embedded default scene without SCENE) to an image.
     Render(RenderArgs),
+    /// Write a procedural scene (balls, tetra, mount, rings) of the given size as p3f to stdout.
+    Gen {
+        /// balls (sphereflake), tetra, mount or rings.
+        name: String,
+        /// Recursion depth (balls, tetra, mount) or number of rings.
+        size: u32,
+    },
+    /// Measure an accelerator: build time, closest-hit and occlusion Mrays/s, size, primitives tested.
+    Bench(BenchCli),
     /// Print the RMSE between two images of the same size (8-bit channels as values in [0, 1]).
     Compare {
         /// The first image.
@@ -103,6 +114,48 @@ struct RenderArgs {
     crop: Option<Vec<u32>>,
 }
 
+#[derive(clap::Args)]
+struct BenchCli {
+    /// A p3f scene (or give --mesh or --gen).
+    scene: Option<PathBuf>,
+    /// An OBJ mesh, framed by an automatic camera.
+    #[arg(long, conflicts_with = "scene")]
+    mesh: Option<PathBuf>,
+    /// A procedural scene: NAME SIZE (e.g. balls 4).
+    #[arg(long = "gen", num_args = 2, value_names = ["NAME", "SIZE"], conflicts_with_all = ["scene", "mesh"])]
+    procedural: Option<Vec<String>>,
+    /// The rays: camera (coherent) or random (incoherent).
+    #[arg(long, value_enum, default_value = "camera")]
+    rays: bench::RayKind,
+    /// Number of rays (camera rays: rounded to a square view).
+    #[arg(long, default_value_t = 1 << 20)]
+    count: usize,
+    /// Accelerator.
+    #[arg(long, value_enum, default_value = "bvh")]
+    accel: AccelArg,
+    /// Density of the uniform grid: about K cells per primitive.
+    #[arg(long, default_value_t = 2.0, value_name = "K")]
+    grid_k: f32,
+    /// Worker threads (default 1, the single-ray figure).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Seed of the random rays.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Trace the rays of this ray file instead.
+    #[arg(long)]
+    read_rays: Option<PathBuf>,
+    /// Save the rays traced to this file.
+    #[arg(long)]
+    write_rays: Option<PathBuf>,
+    /// Save each ray's closest hit (t, primitive) to this file.
+    #[arg(long)]
+    write_hits: Option<PathBuf>,
+    /// Runs of each measurement; the best is reported.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum AccelArg {
     None,
@@ -126,6 +179,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Compare { a, b } => compare(&a, &b),
+        Command::Gen { name, size } => generate(&name, size),
+        Command::Bench(args) => bench_command(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -137,7 +192,7 @@ fn main() -> ExitCode {
 }
 
 fn render(args: RenderArgs) -> Result<(), Failure> {
-    let options = p3f::LoadOptions { strict: args.strict };
+    let options = p3f::LoadOptions { strict: args.strict, ..Default::default() };
     let (scene, warnings, mut env_dirs) = match &args.scene {
         Some(path) => {
             let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
@@ -177,12 +232,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     if !args.specular_scale.is_finite() || args.specular_scale < 0.0 {
         return Err(bad_input(format!("--specular-scale {}: expected a finite number >= 0", args.specular_scale)));
     }
-    let accel = args.accel.map(|a| match a {
-        AccelArg::None => AccelKind::None,
-        AccelArg::Bvh => AccelKind::Bvh,
-        AccelArg::BvhMidpoint => AccelKind::BvhMidpoint,
-        AccelArg::Grid => AccelKind::Grid,
-    });
+    let accel = args.accel.map(accel_kind);
     let render_options = RenderOptions {
         settings,
         accel,
@@ -259,6 +309,60 @@ fn scene_render(
     bar: &ProgressBar,
 ) -> Result<raylume_scene::RenderOutput, Failure> {
     scene.render(options, &|| bar.inc(1)).map_err(bad_input)
+}
+
+fn accel_kind(a: AccelArg) -> AccelKind {
+    match a {
+        AccelArg::None => AccelKind::None,
+        AccelArg::Bvh => AccelKind::Bvh,
+        AccelArg::BvhMidpoint => AccelKind::BvhMidpoint,
+        AccelArg::Grid => AccelKind::Grid,
+    }
+}
+
+fn generate(name: &str, size: u32) -> Result<(), Failure> {
+    let generator: procedural::Generator = name.parse().map_err(bad_input)?;
+    let scene = generator.generate(size).map_err(bad_input)?;
+    let mut out = std::io::stdout().lock();
+    std::io::Write::write_all(&mut out, scene.to_p3f().as_bytes())
+        .map_err(|e| Failure { code: 1, message: e.to_string() })
+}
+
+fn bench_command(args: BenchCli) -> Result<(), Failure> {
+    let scene = if let Some(path) = &args.mesh {
+        let mesh = raylume_scene::obj::load(path).map_err(bad_input)?;
+        procedural::mesh_view(mesh, 1024, 1024)
+    } else if let Some(g) = &args.procedural {
+        let size: u32 = g[1].parse().map_err(|_| bad_input(format!("--gen {} {}: expected a size", g[0], g[1])))?;
+        g[0].parse::<procedural::Generator>().and_then(|g| g.generate(size)).map_err(bad_input)?
+    } else if let Some(path) = &args.scene {
+        p3f::load(path, &p3f::LoadOptions::default()).map_err(bad_input)?.0
+    } else {
+        return Err(bad_input("give a SCENE, --mesh FILE or --gen NAME SIZE"));
+    };
+    if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= 1000.0) {
+        return Err(bad_input(format!("--grid-k {}: expected a number in (0, 1000]", args.grid_k)));
+    }
+    if args.count == 0 || args.count > 1 << 28 {
+        return Err(bad_input(format!("--count {}: expected 1..=2^28 rays", args.count)));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.max(1))
+        .build()
+        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let run = bench::BenchArgs {
+        scene,
+        accel: accel_kind(args.accel),
+        grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
+        rays: args.rays,
+        count: args.count,
+        seed: args.seed,
+        read_rays: args.read_rays,
+        write_rays: args.write_rays,
+        write_hits: args.write_hits,
+        repeat: args.repeat,
+    };
+    pool.install(|| bench::run(run))
 }
 
 fn compare(a: &Path, b: &Path) -> Result<(), Failure> {

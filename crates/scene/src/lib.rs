@@ -22,7 +22,10 @@ mod builder;
 mod env;
 mod error;
 mod model;
+pub mod obj;
 pub mod p3f;
+pub mod procedural;
+pub mod rays;
 mod render;
 mod writer;
 

@@ -24,10 +24,13 @@ pub const MAX_RESOLUTION: u32 = 16_384;
 pub const MAX_PIXELS: u64 = 1 << 27;
 
 /// How to load a file.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Make warnings (unknown tags) errors.
     pub strict: bool,
+    /// The folder relative file names (`obj`) are resolved in; [`load`] sets it to the scene's
+    /// folder, [`parse`] uses the current folder without it.
+    pub base_dir: Option<std::path::PathBuf>,
 }
 
 /// The tags of the format.
@@ -36,7 +39,11 @@ const TAGS: &[&str] = &["v", "bclr", "env", "l", "f", "s", "sm", "box", "p", "pp
 /// Reads and parses a p3f file.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<(Scene, Vec<Warning>), SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
-    parse(&text, &path.display().to_string(), options)
+    let mut options = options.clone();
+    if options.base_dir.is_none() {
+        options.base_dir = path.parent().map(Path::to_path_buf);
+    }
+    parse(&text, &path.display().to_string(), &options)
 }
 
 /// Parses p3f text; `file` names it in messages.
@@ -223,7 +230,7 @@ impl<'a> Parser<'a, '_> {
         let mut spp_hint = None;
         let mut shutter = None;
         while let Some(tag) = self.lex.next() {
-            let needs_material = matches!(tag.text, "s" | "sm" | "box" | "p" | "pp" | "pl" | "c" | "mesh");
+            let needs_material = matches!(tag.text, "s" | "sm" | "box" | "p" | "pp" | "pl" | "c" | "mesh" | "obj");
             if needs_material && materials.is_empty() {
                 return Err(
                     self.error(&tag, format!("'{}' comes before any material: expected an 'f' entity first", tag.text))
@@ -323,6 +330,7 @@ impl<'a> Parser<'a, '_> {
                     Some(Shape::Cone { base, base_radius, apex, apex_radius })
                 }
                 "mesh" => Some(self.mesh()?),
+                "obj" => Some(self.obj()?),
                 "accel" => {
                     accel_hint = Some(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32);
                     None
@@ -460,6 +468,29 @@ impl<'a> Parser<'a, '_> {
             }
         }
         Ok(Phong { diffuse, kd, specular, ks, shine, transmittance, ior, specular_scale: 1.0, roughness })
+    }
+
+    /// raylume's extension `obj FILE [scale tx ty tz]`: an OBJ mesh, path relative to the scene's
+    /// folder, optionally scaled then translated.
+    fn obj(&mut self) -> Result<Shape, SceneError> {
+        let name = self.token("an OBJ file name")?;
+        let path = self.options.base_dir.as_deref().unwrap_or(Path::new(".")).join(name.text);
+        let shape = crate::obj::load(&path).map_err(|e| self.error(&name, format!("obj '{}': {e}", name.text)))?;
+        let (mut scale, mut offset) = (1.0, Vec3A::ZERO);
+        if self.next_is_number() {
+            let t = self.lex.peek().expect("a number is next");
+            scale = self.number("obj scale")?;
+            if scale <= 0.0 {
+                return Err(self.error(&t, format!("expected a positive obj scale, found '{}'", t.text)));
+            }
+            offset = self.vec3("obj translation")?;
+        }
+        Ok(match shape {
+            Shape::Mesh { vertices, triangles } => {
+                Shape::Mesh { vertices: vertices.into_iter().map(|v| v * scale + offset).collect(), triangles }
+            }
+            other => other,
+        })
     }
 
     fn mesh(&mut self) -> Result<Shape, SceneError> {

@@ -168,7 +168,7 @@ fn unknown_tags_warn_and_strict_makes_them_errors() {
     assert_eq!((warnings[0].line, warnings[0].column), (9, 1));
     assert!(warnings[0].to_string().starts_with("w.p3f:9:1: warning: unknown tag 'ms'"), "{}", warnings[0]);
     assert_eq!(scene.objects.len(), 1, "the numbers of the unknown tag are skipped, the sphere is kept");
-    let e = parse(&text, "w.p3f", &LoadOptions { strict: true }).unwrap_err().to_string();
+    let e = parse(&text, "w.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err().to_string();
     assert!(e.starts_with("w.p3f:9:1: unknown tag 'ms'"), "{e}");
 }
 
@@ -199,11 +199,12 @@ fn every_course_scene_loads_and_round_trips() {
         if path.extension().is_none_or(|e| e != "p3f") {
             continue;
         }
-        let (scene, warnings) = load(&path, &LoadOptions { strict: true }).unwrap_or_else(|e| panic!("{e}"));
+        let (scene, warnings) =
+            load(&path, &LoadOptions { strict: true, ..Default::default() }).unwrap_or_else(|e| panic!("{e}"));
         assert!(warnings.is_empty());
         assert!(!scene.objects.is_empty(), "{}", path.display());
         let text = scene.to_p3f();
-        let (again, _) = parse(&text, "roundtrip.p3f", &LoadOptions { strict: true }).unwrap();
+        let (again, _) = parse(&text, "roundtrip.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap();
         assert_eq!(again, scene, "round trip of {}", path.display());
         count += 1;
     }

@@ -1,0 +1,139 @@
+//! `raylume bench`: build time, closest-hit and occlusion throughput, structure size and primitives
+//! tested per ray, on camera or random rays that can be saved and read back.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Grid, GridParams};
+use raylume_geometry::{Interval, Ray};
+use raylume_scene::{Scene, rays};
+use rayon::prelude::*;
+
+use crate::{Failure, bad_input};
+
+/// Which rays to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RayKind {
+    /// Coherent rays through the pixel centres of the scene's camera (a square view).
+    Camera,
+    /// Incoherent rays: origins on a sphere around the scene, aimed at random points in it.
+    Random,
+}
+
+/// What to measure.
+pub struct BenchArgs {
+    pub scene: Scene,
+    pub accel: AccelKind,
+    pub grid: GridParams,
+    pub rays: RayKind,
+    pub count: usize,
+    pub seed: u64,
+    pub read_rays: Option<PathBuf>,
+    pub write_rays: Option<PathBuf>,
+    pub write_hits: Option<PathBuf>,
+    pub repeat: usize,
+}
+
+pub fn run(args: BenchArgs) -> Result<(), Failure> {
+    let prims = args.scene.primitives().primitives;
+    let n = prims.len();
+    let shutter = args.scene.shutter();
+    let start = Instant::now();
+    match args.accel {
+        AccelKind::None => measure(&args, BruteForce::new(prims), start, n),
+        AccelKind::Bvh => measure(&args, Bvh::new(prims, shutter), start, n),
+        AccelKind::BvhMidpoint => measure(&args, Bvh::with_build(prims, shutter, BvhBuild::Midpoint), start, n),
+        AccelKind::Grid => measure(&args, Grid::new(prims, shutter, args.grid), start, n),
+    }
+}
+
+fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize) -> Result<(), Failure> {
+    let build = start.elapsed().as_secs_f64();
+    let rays = match &args.read_rays {
+        Some(path) => {
+            let file = std::fs::File::open(path).map_err(|e| bad_input(format!("{}: {e}", path.display())))?;
+            rays::read_rays(&mut std::io::BufReader::new(file))
+                .map_err(|e| bad_input(format!("{}: {e}", path.display())))?
+        }
+        None => match args.rays {
+            RayKind::Camera => rays::camera_rays(&args.scene.view, args.count),
+            RayKind::Random => rays::random_rays(&accel.bounds(), args.count, args.seed),
+        },
+    };
+    if rays.is_empty() {
+        return Err(bad_input("no rays to trace"));
+    }
+    if let Some(path) = &args.write_rays {
+        write_atomically(path, |out| rays::write_rays(out, &rays))?;
+    }
+    // Closest hits, repeated; the best run is reported (the machine is shared and noisy).
+    let threads = rayon::current_num_threads();
+    let trace = |ray: &Ray| accel.closest_hit(ray, Interval::POSITIVE).map(|h| (h.hit.t, h.primitive));
+    let mut best_closest = f64::INFINITY;
+    let mut hits = Vec::new();
+    for _ in 0..args.repeat.max(1) {
+        let t = Instant::now();
+        hits = if threads == 1 { rays.iter().map(trace).collect() } else { rays.par_iter().map(trace).collect() };
+        best_closest = best_closest.min(t.elapsed().as_secs_f64());
+    }
+    let mut best_occluded = f64::INFINITY;
+    let mut blocked = 0;
+    for _ in 0..args.repeat.max(1) {
+        let t = Instant::now();
+        let occ = |r: &Ray| accel.occluded(r, f32::INFINITY) as usize;
+        blocked = if threads == 1 { rays.iter().map(occ).sum() } else { rays.par_iter().map(occ).sum() };
+        best_occluded = best_occluded.min(t.elapsed().as_secs_f64());
+    }
+    // Primitives tested per ray, in a separate counting pass.
+    let mut tested = 0u64;
+    for r in &rays {
+        accel.closest_hit_tally(r, Interval::POSITIVE, &mut tested);
+    }
+    let mut tested_shadow = 0u64;
+    for r in &rays {
+        accel.occluded_tally(r, f32::INFINITY, &mut tested_shadow);
+    }
+    if let Some(path) = &args.write_hits {
+        write_atomically(path, |out| rays::write_hits(out, &hits))?;
+    }
+    let stats = accel.stats();
+    let count = rays.len() as f64;
+    let hit_count = hits.iter().filter(|h| h.is_some()).count();
+    println!("primitives          {n}");
+    println!("accelerator         {:?}", args.accel);
+    println!("build               {:.3} ms", build * 1e3);
+    println!("nodes               {}", stats.nodes);
+    println!("bytes per primitive {:.1}", stats.bytes as f64 / n.max(1) as f64);
+    println!(
+        "rays                {} ({:?}), {hit_count} hit, {blocked} occluded, {threads} thread(s)",
+        rays.len(),
+        args.rays
+    );
+    println!("closest hit         {:.3} Mrays/s", count / best_closest / 1e6);
+    println!("occlusion           {:.3} Mrays/s", count / best_occluded / 1e6);
+    println!(
+        "tested per ray      {:.2} (closest hit), {:.2} (occlusion)",
+        tested as f64 / count,
+        tested_shadow as f64 / count
+    );
+    Ok(())
+}
+
+fn write_atomically(
+    path: &std::path::Path,
+    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), Failure> {
+    let fail = |e: std::io::Error| Failure { code: 1, message: format!("{}: {e}", path.display()) };
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut out = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        write(&mut out)?;
+        out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(fail)
+}
