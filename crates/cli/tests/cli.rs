@@ -190,3 +190,45 @@ fn effects_from_the_command_line_and_crops_match_the_full_image() {
         .unwrap();
     assert_eq!(run.status.code(), Some(2));
 }
+
+#[test]
+fn gen_writes_a_loadable_scene_and_bench_reports() {
+    let dir = temp_dir("gen");
+    let run = raylume().args(["gen", "balls", "2"]).output().unwrap();
+    assert!(run.status.success());
+    let scene = dir.join("balls.p3f");
+    std::fs::write(&scene, &run.stdout).unwrap();
+    assert_eq!(String::from_utf8_lossy(&run.stdout).lines().filter(|l| l.starts_with("s ")).count(), 91);
+    let (rays, hits) = (dir.join("r.bin"), dir.join("h.bin"));
+    let run = raylume()
+        .arg("bench")
+        .arg(&scene)
+        .args(["--rays", "random", "--count", "500", "--repeat", "1", "--write-rays"])
+        .arg(&rays)
+        .arg("--write-hits")
+        .arg(&hits)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = String::from_utf8_lossy(&run.stdout);
+    for field in ["build", "nodes", "bytes per primitive", "closest hit", "occlusion", "tested per ray"] {
+        assert!(out.contains(field), "{field} in {out}");
+    }
+    assert_eq!(std::fs::metadata(&rays).unwrap().len(), 4 + 500 * 24);
+    assert_eq!(std::fs::metadata(&hits).unwrap().len(), 500 * 8);
+    // The same rays read back, through the grid, give the same hits.
+    let hits2 = dir.join("h2.bin");
+    let run = raylume()
+        .arg("bench")
+        .arg(&scene)
+        .args(["--accel", "grid", "--repeat", "1", "--read-rays"])
+        .arg(&rays)
+        .arg("--write-hits")
+        .arg(&hits2)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(std::fs::read(&hits).unwrap(), std::fs::read(&hits2).unwrap());
+    let run = raylume().args(["gen", "teapot", "2"]).output().unwrap();
+    assert_eq!(run.status.code(), Some(2));
+}
