@@ -32,13 +32,15 @@ fn build_and_trace(c: &mut Criterion) {
         let n = prims.len();
         let shutter = scene.shutter();
         let bounds = Bvh::new(prims.clone(), shutter).bounds();
-        let ray_sets = [("camera", rays::camera_rays(&scene.view, RAYS)), ("random", rays::random_rays(&bounds, RAYS, 1))];
+        let ray_sets =
+            [("camera", rays::camera_rays(&scene.view, RAYS)), ("random", rays::random_rays(&bounds, RAYS, 1))];
 
         let mut group = c.benchmark_group(format!("build/{name}"));
         group.sample_size(10);
         group.throughput(Throughput::Elements(n as u64));
         group.bench_function("bvh", |b| b.iter(|| Bvh::new(prims.clone(), shutter)));
-        group.bench_function("bvh-midpoint", |b| b.iter(|| Bvh::with_build(prims.clone(), shutter, BvhBuild::Midpoint)));
+        group
+            .bench_function("bvh-midpoint", |b| b.iter(|| Bvh::with_build(prims.clone(), shutter, BvhBuild::Midpoint)));
         group.bench_function("grid", |b| b.iter(|| Grid::new(prims.clone(), shutter, GridParams::default())));
         group.finish();
 

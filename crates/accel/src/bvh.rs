@@ -26,13 +26,13 @@ pub enum BvhBuild {
     Midpoint,
 }
 
-/// One node: its bounds and either the range of its primitives (leaf) or the index of its second
-/// child (inner node; the first child follows it directly).
+/// One node: its bounds and either the range of its primitives (leaf) or the index of its first child
+/// (inner node; the second child is next to it).
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 struct Node {
     min: [f32; 3],
-    /// Leaf: first primitive. Inner: index of the second child.
+    /// Leaf: first primitive. Inner: index of the first child (the second follows it).
     offset: u32,
     max: [f32; 3],
     /// Leaf: number of primitives (> 0). Inner: 0.
@@ -93,7 +93,8 @@ impl<P: Intersect + Clone> Bvh<P> {
         }
         let mut nodes = Vec::with_capacity((2 * items.len()).max(1));
         if !items.is_empty() {
-            build(&mut items, &mut nodes, 0, 0, method);
+            nodes.push(PLACEHOLDER);
+            build(&mut items, &mut nodes, 0, 0, 0, method);
         }
         let bounds = nodes.first().map_or(Aabb::EMPTY, Node::aabb);
         let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
@@ -110,24 +111,25 @@ impl<P: Intersect + Clone> Bvh<P> {
 /// Depth past which splits are object medians, so the depth stays below [`STACK`] for any input.
 const MEDIAN_DEPTH: usize = 36;
 
-fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: usize, method: BvhBuild) -> usize {
+/// Fills the preallocated node `me` from `items` (which start at primitive `first`): a leaf, or an
+/// inner node whose two children are allocated next to each other and built recursively.
+fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize, depth: usize, method: BvhBuild) {
     let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
-    let me = nodes.len();
-    nodes.push(Node {
+    nodes[me] = Node {
         min: bounds.min.to_array(),
         offset: first as u32,
         max: bounds.max.to_array(),
         count: items.len() as u16,
         axis: 0,
-    });
+    };
     let n = items.len();
     if n <= 1 {
-        return me;
+        return;
     }
     let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
     if method == BvhBuild::Midpoint {
         if n <= MIDPOINT_LEAF {
-            return me;
+            return;
         }
         let (axis, mid) = if depth < MEDIAN_DEPTH {
             midpoint_split(items, &bounds, &cb)
@@ -143,14 +145,14 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
     let mid = if extent <= 0.0 {
         // All centroids coincide: split by count if the leaf would be too large.
         if n <= MAX_LEAF {
-            return me;
+            return;
         }
         n / 2
     } else {
         let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, axis, extent) } else { None };
         match sah {
             Some(mid) => mid,
-            None if n <= MAX_LEAF => return me,
+            None if n <= MAX_LEAF => return,
             None => {
                 items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
                 n / 2
@@ -160,7 +162,8 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, first: usize, depth: us
     finish_inner(items, nodes, me, first, depth, method, axis, mid)
 }
 
-/// Builds both children of node `me` from `items` split at `mid` and makes `me` an inner node.
+/// Builds both children of node `me` from `items` split at `mid`, side by side at the end of `nodes`,
+/// and makes `me` an inner node pointing at the first.
 #[allow(clippy::too_many_arguments)]
 fn finish_inner(
     items: &mut [BuildItem],
@@ -171,16 +174,19 @@ fn finish_inner(
     method: BvhBuild,
     axis: usize,
     mid: usize,
-) -> usize {
-    let (left, right) = items.split_at_mut(mid);
-    build(left, nodes, first, depth + 1, method);
-    let second = build(right, nodes, first + mid, depth + 1, method);
+) {
+    let left = nodes.len();
+    nodes.extend([PLACEHOLDER; 2]);
+    let (l, r) = items.split_at_mut(mid);
+    build(l, nodes, left, first, depth + 1, method);
+    build(r, nodes, left + 1, first + mid, depth + 1, method);
     let node = &mut nodes[me];
-    node.offset = second as u32;
+    node.offset = left as u32;
     node.count = 0;
     node.axis = axis as u16;
-    me
 }
+
+const PLACEHOLDER: Node = Node { min: [0.0; 3], offset: 0, max: [0.0; 3], count: 0, axis: 0 };
 
 /// Largest leaf of the course's build.
 const MIDPOINT_LEAF: usize = 2;
@@ -298,11 +304,8 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                     }
                 } else {
                     // Visit the child on the ray's near side first.
-                    let (near, far) = if neg[node.axis as usize] {
-                        (node.offset as usize, idx + 1)
-                    } else {
-                        (idx + 1, node.offset as usize)
-                    };
+                    let first = node.offset as usize;
+                    let (near, far) = if neg[node.axis as usize] { (first + 1, first) } else { (first, first + 1) };
                     stack[sp] = far as u32;
                     sp += 1;
                     idx = near;
@@ -344,9 +347,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                         return true;
                     }
                 } else {
-                    stack[sp] = node.offset;
+                    stack[sp] = node.offset + 1;
                     sp += 1;
-                    idx += 1;
+                    idx = node.offset as usize;
                     continue;
                 }
             }

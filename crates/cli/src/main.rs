@@ -48,6 +48,9 @@ enum Command {
 struct RenderArgs {
     /// The p3f scene; without it, the embedded default scene.
     scene: Option<PathBuf>,
+    /// Render an OBJ mesh instead, framed by an automatic camera and light.
+    #[arg(long, conflicts_with = "scene")]
+    mesh: Option<PathBuf>,
     /// Output image: .png (8-bit), .exr or .pfm (linear float).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
@@ -193,19 +196,25 @@ fn main() -> ExitCode {
 
 fn render(args: RenderArgs) -> Result<(), Failure> {
     let options = p3f::LoadOptions { strict: args.strict, ..Default::default() };
-    let (scene, warnings, mut env_dirs) = match &args.scene {
-        Some(path) => {
-            let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
-            let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-            let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
-            let mut dirs = vec![dir.clone()];
-            dirs.push(dir.join(".."));
-            (scene, warnings, dirs)
+    let (scene, warnings, mut env_dirs) = match (&args.scene, &args.mesh) {
+        (_, Some(mesh)) => {
+            let mesh = raylume_scene::obj::load(mesh).map_err(bad_input)?;
+            (procedural::mesh_view(mesh, 512, 512), Vec::new(), Vec::new())
         }
-        None => {
-            let (scene, warnings) = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
-            (scene, warnings, vec![PathBuf::from(".")])
-        }
+        (scene, None) => match scene {
+            Some(path) => {
+                let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
+                let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+                let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
+                let mut dirs = vec![dir.clone()];
+                dirs.push(dir.join(".."));
+                (scene, warnings, dirs)
+            }
+            None => {
+                let (scene, warnings) = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
+                (scene, warnings, vec![PathBuf::from(".")])
+            }
+        },
     };
     for w in &warnings {
         eprintln!("{w}");
