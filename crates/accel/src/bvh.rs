@@ -8,9 +8,9 @@ use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 /// Number of SAH bins per axis.
 const BINS: usize = 12;
 /// Largest leaf the SAH may choose.
-const MAX_LEAF: usize = 8;
+const MAX_LEAF: usize = 4;
 /// Cost of visiting a node relative to one primitive test.
-const TRAVERSAL_COST: f32 = 0.5;
+const TRAVERSAL_COST: f32 = 1.0;
 /// Depth of the traversal stack (the build never goes deeper than this).
 const STACK: usize = 64;
 
