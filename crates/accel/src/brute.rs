@@ -23,6 +23,9 @@ impl<P: Intersect> BruteForce<P> {
 
 impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
     fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        if !ray.is_valid() {
+            return None;
+        }
         let mut best = None;
         for (i, p) in self.prims.iter().enumerate() {
             tally.tested();
@@ -35,6 +38,9 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
     }
 
     fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        if !ray.is_valid() || t_max.is_nan() {
+            return false;
+        }
         self.prims.iter().any(|p| {
             tally.tested();
             p.occluded(ray, t_max)

@@ -274,6 +274,9 @@ fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, axis: usize, ext
 
 impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        if !ray.is_valid() {
+            return None;
+        }
         let mut best = None;
         for (p, id) in &self.unbounded {
             tally.tested();
@@ -322,6 +325,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     }
 
     fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        if !ray.is_valid() || t_max.is_nan() {
+            return false;
+        }
         if self.unbounded.iter().any(|(p, _)| {
             tally.tested();
             p.occluded(ray, t_max)

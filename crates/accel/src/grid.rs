@@ -227,6 +227,9 @@ impl Mailbox {
 
 impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
     fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        if !ray.is_valid() {
+            return None;
+        }
         let mut best = None;
         for &i in &self.unbounded {
             tally.tested();
@@ -253,6 +256,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
     }
 
     fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        if !ray.is_valid() || t_max.is_nan() {
+            return false;
+        }
         for &i in &self.unbounded {
             tally.tested();
             if self.prims[i as usize].occluded(ray, t_max) {

@@ -113,16 +113,36 @@ impl Aabb {
     /// The parameter range `[t0, t1]` in which the ray is inside the box, clipped to
     /// `[t_min, t_max]`, or `None` if the ray misses it.
     ///
-    /// `inv_dir` is `1 / ray.dir` (infinite for zero components). The slab test is ordered so that
-    /// `0 * inf` NaNs (a ray lying in a slab's plane) never make a hit disappear, and `t_max`
-    /// is widened by a few ULPs (pbrt's `gamma(3)` bound) so the test is conservative.
+    /// `inv_dir` is `1 / ray.dir` (infinite for zero components). The test is conservative, so a
+    /// traversal using it never misses what the primitive test would hit:
+    /// - a direction component of `+0` or `-0` (the ray parallel to a slab) gives no constraint when
+    ///   the origin lies in the slab, faces included, and a miss otherwise, the same for both signs;
+    /// - a `0 * inf` NaN (origin exactly on a face, subnormal direction) widens the range instead of
+    ///   poisoning it;
+    /// - the far end is widened by pbrt's `1 + 2 gamma(3)` for the rounding of the subtraction and
+    ///   the product.
+    ///
+    /// ```
+    /// use raylume_geometry::{Aabb, Ray, Vec3A};
+    /// let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+    /// // A ray lying in the face x = 0, with a direction of -0 along x: still inside.
+    /// let r = Ray::new(Vec3A::new(0.0, 0.5, -1.0), Vec3A::new(-0.0, 0.0, 1.0));
+    /// assert!(b.hit_range(&r, r.dir.recip(), 0.0, f32::INFINITY).is_some());
+    /// ```
     #[inline]
     pub fn hit_range(&self, ray: &Ray, inv_dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
         let t_lo = (self.min - ray.origin) * inv_dir;
         let t_hi = (self.max - ray.origin) * inv_dir;
-        // min/max of glam map NaN to the other operand, so NaN slabs (0 * inf) are ignored.
-        let t_near = t_lo.min(t_hi);
-        let t_far = t_lo.max(t_hi);
+        let t_lo = Vec3A::select(t_lo.is_nan_mask(), Vec3A::NEG_INFINITY, t_lo);
+        let t_hi = Vec3A::select(t_hi.is_nan_mask(), Vec3A::INFINITY, t_hi);
+        let mut t_near = t_lo.min(t_hi);
+        let mut t_far = t_lo.max(t_hi);
+        let parallel = ray.dir.cmpeq(Vec3A::ZERO);
+        if parallel.any() {
+            let inside = ray.origin.cmpge(self.min) & ray.origin.cmple(self.max);
+            t_near = Vec3A::select(parallel, Vec3A::select(inside, Vec3A::NEG_INFINITY, Vec3A::INFINITY), t_near);
+            t_far = Vec3A::select(parallel, Vec3A::select(inside, Vec3A::INFINITY, Vec3A::NEG_INFINITY), t_far);
+        }
         let t0 = t_near.max_element().max(t_min);
         let t1 = (t_far.min_element() * (1.0 + 2.0 * GAMMA3)).min(t_max);
         (t0 <= t1).then_some((t0, t1))

@@ -27,6 +27,13 @@ impl Ray {
         Self { origin, dir, time }
     }
 
+    /// Whether the ray can be traced: finite origin and direction, and a direction that is not zero.
+    /// Accelerators return no hit for any other ray, after constant work.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        self.origin.is_finite() && self.dir.is_finite() && self.dir != Vec3A::ZERO && !self.time.is_nan()
+    }
+
     /// The point at parameter `t` along the ray.
     #[inline]
     pub fn at(&self, t: f32) -> Vec3A {
@@ -59,10 +66,11 @@ impl Interval {
         Self { min, max }
     }
 
-    /// Whether `t` lies in the interval (false for NaN).
+    /// Whether `t` is finite and lies in the interval (false for NaN and infinities, so a division
+    /// by zero never reports a hit at infinity).
     #[inline]
     pub fn contains(&self, t: f32) -> bool {
-        t >= self.min && t <= self.max
+        t >= self.min && t <= self.max && t.is_finite()
     }
 
     /// The same interval with its upper end lowered to `max` (used to prune by the closest hit so far).

@@ -1,5 +1,5 @@
 use raylume_accel::Accelerator;
-use raylume_geometry::{Interval, Ray, Vec3, Vec3A, sampling::uniform_ball};
+use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
 use raylume_material::{FresnelMode, Material, reflect, refract};
 
 use crate::sampler::SampleSource;
@@ -135,8 +135,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             }
         };
         let wo = -ray.dir;
-        let eps = spawn_offset(hit.point, ray, hit.t);
-        let above = hit.point + n * eps;
+        let above = offset_ray_origin(hit.point, n);
 
         let mut color = Vec3::ZERO;
         for light in &world.lights {
@@ -154,7 +153,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 if kr < 1.0 {
                     if let Some(dir) = refract(ray.dir, ns, eta) {
                         stats.refraction += 1;
-                        let below = hit.point - n * eps;
+                        let below = offset_ray_origin(hit.point, -n);
                         let t = Ray::with_time(below, dir, ray.time);
                         color += (1.0 - kr) * d.transmittance * self.trace(world, &t, 0.0, depth + 1, sample, stats);
                     }
@@ -195,14 +194,6 @@ pub fn fuzz<S: SampleSource>(dir: Vec3A, n: Vec3A, roughness: f32, sample: &mut 
         }
     }
     None
-}
-
-/// How far to move a secondary ray's origin off the surface: a bound on the rounding error of the
-/// hit point, which grows with the magnitude of the coordinates and of the ray's travel.
-#[inline]
-fn spawn_offset(p: Vec3A, ray: &Ray, t: f32) -> f32 {
-    let magnitude = p.abs().max_element().max(ray.origin.abs().max_element()).max(t.abs());
-    magnitude * 64.0 * f32::EPSILON + f32::MIN_POSITIVE
 }
 
 impl<const SOFT: u8> Integrator for Whitted<SOFT> {

@@ -15,6 +15,7 @@ mod shapes;
 
 pub use primitive::Primitive;
 use raylume_geometry::{Aabb, Interval, Ray, Vec2, Vec3A};
+pub use shapes::{intersect_moller_trumbore, intersect_watertight};
 
 /// Where a ray meets a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -30,8 +30,14 @@ impl Intersect for Sphere {
         } else {
             return None;
         };
-        let point = ray.at(t);
-        let normal = (point - self.center) / self.radius;
+        // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
+        let offset = ray.at(t) - self.center;
+        let len = offset.length();
+        if !(len > 0.0) {
+            return None;
+        }
+        let normal = offset / len;
+        let point = self.center + normal * self.radius;
         Some(Hit { t, point, normal, uv: Vec2::ZERO })
     }
 
@@ -56,41 +62,128 @@ impl Intersect for MovingSphere {
 }
 
 impl Intersect for Triangle {
-    /// Möller–Trumbore, the course's choice. Degenerate triangles (zero area) never hit.
+    /// The watertight test of Woop, Benthin and Wald ([`intersect_watertight`]).
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        let e1 = self.p[1] - self.p[0];
-        let e2 = self.p[2] - self.p[0];
-        let pvec = ray.dir.cross(e2);
-        let det = e1.dot(pvec);
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let tvec = ray.origin - self.p[0];
-        let b1 = tvec.dot(pvec) * inv_det;
-        if !(0.0..=1.0).contains(&b1) {
-            return None;
-        }
-        let qvec = tvec.cross(e1);
-        let b2 = ray.dir.dot(qvec) * inv_det;
-        if b2 < 0.0 || b1 + b2 > 1.0 {
-            return None;
-        }
-        let t = e2.dot(qvec) * inv_det;
-        if !t_range.contains(t) {
-            return None;
-        }
-        let normal = e1.cross(e2).normalize_or_zero();
-        if normal == Vec3A::ZERO {
-            return None;
-        }
-        Some(Hit { t, point: ray.at(t), normal, uv: Vec2::new(b1, b2) })
+        intersect_watertight(self, ray, t_range)
     }
 
     fn bounds(&self) -> Aabb {
         Triangle::bounds(self)
     }
+}
+
+/// Ray/triangle intersection after Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection"
+/// (JCGT 2013): the vertices are moved into a frame where the ray runs along +z from the origin, and
+/// the 2D edge functions decide the hit. Each edge function depends only on its two endpoints, so a
+/// ray through a shared edge or vertex of a closed mesh hits at least one of the triangles sharing
+/// it and never passes between them; edge functions that round to zero are recomputed in f64.
+/// Degenerate (zero-area) triangles never report a hit, and no hit carries a NaN.
+///
+/// The hit point is rebuilt from the barycentrics, which bounds its error by the vertices' magnitude
+/// rather than the ray's travel.
+///
+/// ```
+/// use raylume_geometry::{Interval, Ray, Triangle, Vec3A};
+/// use raylume_intersect::intersect_watertight;
+/// let t = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+/// // Exactly through the shared edge's midpoint of two triangles: the edge belongs to the triangle.
+/// let ray = Ray::new(Vec3A::new(0.5, 0.5, 1.0), -Vec3A::Z);
+/// assert!(intersect_watertight(&t, &ray, Interval::POSITIVE).is_some());
+/// ```
+#[inline]
+pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
+    let d = ray.dir;
+    let ad = d.abs();
+    // kz: the dimension where the direction is largest; kx, ky: the other two, keeping the winding.
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z { 0 } else { 2 }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    if d[kz] == 0.0 || !d[kz].is_finite() {
+        return None;
+    }
+    let sz = 1.0 / d[kz];
+    let sx = d[kx] * sz;
+    let sy = d[ky] * sz;
+    let a = tri.p[0] - ray.origin;
+    let b = tri.p[1] - ray.origin;
+    let c = tri.p[2] - ray.origin;
+    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        // On an edge within f32 rounding: decide it in f64, where these products are exact.
+        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        u = f(cx, by, cy, bx);
+        v = f(ax, cy, ay, cx);
+        w = f(bx, ay, by, ax);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+    let t = (u * az + v * bz + w * cz) / det;
+    if !t_range.contains(t) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let (b0, b1, b2) = (u * inv, v * inv, w * inv);
+    let normal = tri.normal().normalize_or_zero();
+    if normal == Vec3A::ZERO || !normal.is_finite() {
+        return None;
+    }
+    let point = tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2;
+    Some(Hit { t, point, normal, uv: Vec2::new(b1, b2) })
+}
+
+/// Möller–Trumbore ray/triangle intersection, the course's choice, kept for comparison: it is not
+/// watertight (rays through shared edges and vertices can pass between triangles). Degenerate
+/// triangles never hit and no hit carries a NaN.
+#[inline]
+pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
+    let e1 = tri.p[1] - tri.p[0];
+    let e2 = tri.p[2] - tri.p[0];
+    let pvec = ray.dir.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let tvec = ray.origin - tri.p[0];
+    let b1 = tvec.dot(pvec) * inv_det;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let qvec = tvec.cross(e1);
+    let b2 = ray.dir.dot(qvec) * inv_det;
+    if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
+        return None;
+    }
+    let t = e2.dot(qvec) * inv_det;
+    if !t_range.contains(t) {
+        return None;
+    }
+    let normal = e1.cross(e2).normalize_or_zero();
+    if normal == Vec3A::ZERO || !normal.is_finite() {
+        return None;
+    }
+    Some(Hit { t, point: ray.at(t), normal, uv: Vec2::new(b1, b2) })
 }
 
 impl Intersect for Plane {
