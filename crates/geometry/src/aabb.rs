@@ -115,8 +115,9 @@ impl Aabb {
     ///
     /// `inv_dir` is `1 / ray.dir` (infinite for zero components). The test is conservative, so a
     /// traversal using it never misses what the primitive test would hit:
-    /// - a direction component of `+0` or `-0` (the ray parallel to a slab) gives no constraint when
-    ///   the origin lies in the slab, faces included, and a miss otherwise, the same for both signs;
+    /// - a direction component of `+0`, `-0` or a subnormal (the ray parallel to a slab) gives no
+    ///   constraint when the origin lies in the slab, faces included, and a miss otherwise, the same
+    ///   for every sign;
     /// - a `0 * inf` NaN (origin exactly on a face, subnormal direction) widens the range instead of
     ///   poisoning it;
     /// - the far end is widened by pbrt's `1 + 2 gamma(3)` for the rounding of the subtraction and
@@ -137,7 +138,9 @@ impl Aabb {
         let t_hi = Vec3A::select(t_hi.is_nan_mask(), Vec3A::INFINITY, t_hi);
         let mut t_near = t_lo.min(t_hi);
         let mut t_far = t_lo.max(t_hi);
-        let parallel = ray.dir.cmpeq(Vec3A::ZERO);
+        // Zero and subnormal components: the ray runs along the slab (subnormals as zeros, so the
+        // answer is the same for +0, -0 and their tiny neighbours).
+        let parallel = ray.dir.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
         if parallel.any() {
             let inside = ray.origin.cmpge(self.min) & ray.origin.cmple(self.max);
             t_near = Vec3A::select(parallel, Vec3A::select(inside, Vec3A::NEG_INFINITY, Vec3A::INFINITY), t_near);

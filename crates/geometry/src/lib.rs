@@ -38,32 +38,41 @@ pub fn orthonormal_basis(n: Vec3A) -> (Vec3A, Vec3A) {
     (Vec3A::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3A::new(b, sign + n.y * n.y * a, -n.y))
 }
 
-/// Moves a point off a surface along its normal by a few hundred units in the last place of its
-/// coordinates, so a ray leaving from there cannot hit the surface it left (Wächter and Binder,
-/// *Ray Tracing Gems* ch. 6). The offset scales with the coordinates' magnitude, so it works at every
-/// scene scale; near the origin, where ULPs vanish, a small fixed offset takes over.
+/// pbrt's `gamma(n)`: a bound on the relative error of `n` successive f32 operations,
+/// `n u / (1 - n u)` with `u = 2^-24`.
 ///
-/// `p` should be the hit point computed as accurately as the primitive allows (from barycentrics, or
-/// reprojected onto a sphere); `n` is the geometric normal on the side the ray leaves towards.
+/// ```
+/// assert!(raylume_geometry::gamma(3) > 3.0 * f32::EPSILON / 2.0);
+/// ```
+#[inline]
+pub const fn gamma(n: i32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
+}
+
+/// The origin of a ray leaving a surface at `p`: `p` moved along the normal `n` (pointing to the side
+/// the ray leaves towards) just past the box `p ± error` that bounds the point's floating-point error,
+/// then rounded away from `p` (pbrt-v4's `OffsetRayOrigin`). Combined with intersection routines that
+/// reject hits within their own error bound, a ray leaving a surface never hits it again, at any
+/// scene scale, and the offset stays as small as the error allows.
 ///
 /// ```
 /// use raylume_geometry::{offset_ray_origin, Vec3A};
 /// let p = Vec3A::new(1e5, 0.0, 0.0);
-/// let o = offset_ray_origin(p, Vec3A::X);
-/// assert!(o.x > p.x && o.y == 0.0 && o.z == 0.0);
+/// let o = offset_ray_origin(p, Vec3A::splat(0.01), Vec3A::X);
+/// assert!(o.x > p.x + 0.01 && o.y == 0.0 && o.z == 0.0);
 /// ```
 #[inline]
-pub fn offset_ray_origin(p: Vec3A, n: Vec3A) -> Vec3A {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let mut out = [0.0f32; 3];
+pub fn offset_ray_origin(p: Vec3A, error: Vec3A, n: Vec3A) -> Vec3A {
+    let d = n.abs().dot(error);
+    let offset = n * d;
+    let mut o = p + offset;
     for a in 0..3 {
-        let offset = (INT_SCALE * n[a]) as i32;
-        let bits = p[a].to_bits() as i32;
-        let moved =
-            f32::from_bits((if p[a] < 0.0 { bits.wrapping_sub(offset) } else { bits.wrapping_add(offset) }) as u32);
-        out[a] = if p[a].abs() < ORIGIN { p[a] + FLOAT_SCALE * n[a] } else { moved };
+        if offset[a] > 0.0 {
+            o[a] = o[a].next_up();
+        } else if offset[a] < 0.0 {
+            o[a] = o[a].next_down();
+        }
     }
-    Vec3A::from_array(out)
+    o
 }

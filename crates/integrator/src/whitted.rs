@@ -135,7 +135,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             }
         };
         let wo = -ray.dir;
-        let above = offset_ray_origin(hit.point, n);
+        let above = offset_ray_origin(hit.point, hit.error, n);
 
         let mut color = Vec3::ZERO;
         for light in &world.lights {
@@ -153,7 +153,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 if kr < 1.0 {
                     if let Some(dir) = refract(ray.dir, ns, eta) {
                         stats.refraction += 1;
-                        let below = offset_ray_origin(hit.point, -n);
+                        let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
                         color += (1.0 - kr) * d.transmittance * self.trace(world, &t, 0.0, depth + 1, sample, stats);
                     }

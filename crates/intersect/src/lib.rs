@@ -29,6 +29,10 @@ pub struct Hit {
     pub normal: Vec3A,
     /// Surface coordinates: barycentrics `(b1, b2)` for triangles, unused (zero) elsewhere.
     pub uv: Vec2,
+    /// A bound on the absolute floating-point error of each coordinate of `point`: the exact surface
+    /// passes through the box `point ± error`. Secondary rays start just outside it
+    /// (`raylume_geometry::offset_ray_origin`).
+    pub error: Vec3A,
 }
 
 impl Hit {

@@ -1,6 +1,6 @@
 //! One intersection routine per shape.
 
-use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec2, Vec3A};
+use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec2, Vec3A, gamma};
 
 use crate::{Hit, Intersect};
 
@@ -12,9 +12,12 @@ impl Intersect for Sphere {
         let f = ray.origin - self.center;
         let a = ray.dir.length_squared();
         let half_b = f.dot(ray.dir);
-        let c = f.length_squared() - self.radius * self.radius;
+        // |f|^2 - r^2 cancels when the origin is near the surface: form it in f64, where the squares
+        // of f32 values are exact.
+        let r2 = self.radius as f64 * self.radius as f64;
+        let c = (sq64(f) - r2) as f32;
         let closest = f - ray.dir * (half_b / a);
-        let disc = a * (self.radius * self.radius - closest.length_squared());
+        let disc = a * (r2 - sq64(closest)) as f32;
         if disc < 0.0 || !disc.is_finite() {
             return None;
         }
@@ -33,12 +36,13 @@ impl Intersect for Sphere {
         // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
         let offset = ray.at(t) - self.center;
         let len = offset.length();
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return None;
         }
         let normal = offset / len;
         let point = self.center + normal * self.radius;
-        Some(Hit { t, point, normal, uv: Vec2::ZERO })
+        let error = (self.center.abs() + (normal * self.radius).abs()) * gamma(5);
+        Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
     }
 
     fn bounds(&self) -> Aabb {
@@ -138,18 +142,32 @@ pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Opt
         return None;
     }
     let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
-    let t = (u * az + v * bz + w * cz) / det;
+    let inv = 1.0 / det;
+    let t = (u * az + v * bz + w * cz) * inv;
     if !t_range.contains(t) {
         return None;
     }
-    let inv = 1.0 / det;
+    // pbrt-v4's bound on the error of t: a hit closer than it may be the surface the ray left.
+    let max_zt = az.abs().max(bz.abs()).max(cz.abs());
+    let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
+    let max_yt = ay.abs().max(by.abs()).max(cy.abs());
+    let delta_z = gamma(3) * max_zt;
+    let delta_x = gamma(5) * (max_xt + max_zt);
+    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = u.abs().max(v.abs()).max(w.abs());
+    let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs();
+    if delta_t.is_nan() || t <= delta_t {
+        return None;
+    }
     let (b0, b1, b2) = (u * inv, v * inv, w * inv);
     let normal = tri.normal().normalize_or_zero();
     if normal == Vec3A::ZERO || !normal.is_finite() {
         return None;
     }
     let point = tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2;
-    Some(Hit { t, point, normal, uv: Vec2::new(b1, b2) })
+    let error = ((tri.p[0] * b0).abs() + (tri.p[1] * b1).abs() + (tri.p[2] * b2).abs()) * gamma(7);
+    Some(Hit { t, point, normal, uv: Vec2::new(b1, b2), error })
 }
 
 /// Möller–Trumbore ray/triangle intersection, the course's choice, kept for comparison: it is not
@@ -183,7 +201,7 @@ pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray, t_range: Interval) -
     if normal == Vec3A::ZERO || !normal.is_finite() {
         return None;
     }
-    Some(Hit { t, point: ray.at(t), normal, uv: Vec2::new(b1, b2) })
+    Some(Hit { t, point: ray.at(t), normal, uv: Vec2::new(b1, b2), error: travel_error(ray, t, 7) })
 }
 
 impl Intersect for Plane {
@@ -198,7 +216,9 @@ impl Intersect for Plane {
         if !t_range.contains(t) {
             return None;
         }
-        Some(Hit { t, point: ray.at(t), normal: self.normal, uv: Vec2::ZERO })
+        let point = ray.at(t);
+        let error = (ray.origin.abs() + self.point.abs() + (ray.dir * t).abs()) * gamma(7);
+        Some(Hit { t, point, normal: self.normal, uv: Vec2::ZERO, error })
     }
 
     fn bounds(&self) -> Aabb {
@@ -219,26 +239,30 @@ impl Intersect for AaBox {
         } else {
             return None;
         };
-        let point = ray.at(t);
+        let mut point = ray.at(t);
         // The face hit is the one the point is closest to, relative to the box size.
         let size = self.bounds.diagonal().max(Vec3A::splat(f32::MIN_POSITIVE));
         let d_min = ((point - self.bounds.min) / size).abs();
         let d_max = ((self.bounds.max - point) / size).abs();
         let mut best = f32::INFINITY;
-        let mut normal = Vec3A::X;
+        let (mut normal, mut face) = (Vec3A::X, 0);
         for axis in 0..3 {
             let mut unit = Vec3A::ZERO;
             unit[axis] = 1.0;
             if d_min[axis] < best {
                 best = d_min[axis];
-                normal = -unit;
+                (normal, face) = (-unit, axis);
             }
             if d_max[axis] < best {
                 best = d_max[axis];
-                normal = unit;
+                (normal, face) = (unit, axis);
             }
         }
-        Some(Hit { t, point, normal, uv: Vec2::ZERO })
+        // The point lies exactly on the face's plane; only the other two coordinates carry error.
+        point[face] = if normal[face] > 0.0 { self.bounds.max[face] } else { self.bounds.min[face] };
+        let mut error = travel_error(ray, t, 3);
+        error[face] = 0.0;
+        Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
     }
 
     fn bounds(&self) -> Aabb {
@@ -280,7 +304,7 @@ impl Intersect for Cone {
             if n == Vec3A::ZERO {
                 continue;
             }
-            return Some(Hit { t, point: ray.at(t), normal: n, uv: Vec2::ZERO });
+            return Some(Hit { t, point: ray.at(t), normal: n, uv: Vec2::ZERO, error: travel_error(ray, t, 9) });
         }
         None
     }
@@ -307,4 +331,17 @@ fn solve_quadratic(a: f32, b: f32, c: f32) -> Option<[f32; 2]> {
     let q = -0.5 * (b as f64 + disc.sqrt().copysign(b as f64));
     let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { ((q / a as f64) as f32, (c as f64 / q) as f32) };
     Some(if t0 <= t1 { [t0, t1] } else { [t1, t0] })
+}
+
+/// The error bound of a point computed as `o + t d` with `t` carrying `n` roundings.
+#[inline]
+fn travel_error(ray: &Ray, t: f32, n: i32) -> Vec3A {
+    (ray.origin.abs() + (ray.dir * t).abs()) * gamma(n)
+}
+
+/// `|v|^2` in f64 (each square exact).
+#[inline]
+fn sq64(v: Vec3A) -> f64 {
+    let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
+    x * x + y * y + z * z
 }

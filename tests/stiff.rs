@@ -1,0 +1,508 @@
+//! Stiff and extreme cases of ../shared/robustness-cases.md, each with its measured figure printed.
+//! Run in release mode (`cargo test --release --test stiff -- --nocapture` shows the figures).
+//!
+//! Implemented so far: T1, T6, T7, R1, S1, S3, PL1, B1, G3, X2. The rest of the catalogue (T4, T8,
+//! R4, R5, S2, S4, B2, B3, B4, X1) and raylume's own cases are still to come.
+
+use std::collections::HashMap;
+
+use rand_core::Rng;
+use rand_pcg::Pcg32;
+use raylume::accel::{Grid, GridParams};
+use raylume::geometry::{AaBox, Plane, Sphere, Triangle, offset_ray_origin};
+use raylume::intersect::{intersect_moller_trumbore, intersect_watertight};
+use raylume::prelude::*;
+
+const U: f64 = 1.0 / (1u64 << 24) as f64;
+
+fn rng(seed: u64) -> Pcg32 {
+    Pcg32::new(seed, 0xda3e_39cb_94b9_5bdb)
+}
+
+fn unif(r: &mut Pcg32) -> f32 {
+    (r.next_u32() >> 8) as f32 / (1u32 << 24) as f32
+}
+
+fn unit_vector(r: &mut Pcg32) -> Vec3A {
+    let z = 1.0 - 2.0 * unif(r);
+    let phi = std::f32::consts::TAU * unif(r);
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    Vec3A::new(s * phi.cos(), s * phi.sin(), z)
+}
+
+/// An icosphere of the given level: vertices computed once in f32 and shared, so the mesh is closed.
+fn icosphere(level: u32) -> (Vec<Vec3A>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3A> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3A::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut next = Vec::with_capacity(f.len() * 4);
+        for [a, b, c] in f {
+            let mut m = |i: u32, j: u32| {
+                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
+                    v.push(((v[i as usize] + v[j as usize]) * 0.5).normalize());
+                    (v.len() - 1) as u32
+                })
+            };
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v, f)
+}
+
+/// T1: rays from inside a closed icosphere at random directions, vertices, edge points and edge
+/// midpoints must all hit it; Möller–Trumbore's leaks are counted for comparison.
+#[test]
+fn t1_watertight_closed_icosphere() {
+    let (v, f) = icosphere(3);
+    assert_eq!((v.len(), f.len()), (642, 1280));
+    let tris: Vec<Triangle> =
+        f.iter().map(|t| Triangle::new(v[t[0] as usize], v[t[1] as usize], v[t[2] as usize])).collect();
+    let bvh = Bvh::new(tris.iter().map(|t| Primitive::Triangle(*t)).collect(), Interval::new(0.0, 0.0));
+    // Edges for the edge-aimed rays.
+    let edges: Vec<(u32, u32)> = f.iter().flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]).collect();
+    let mut r = rng(1);
+    let per_kind = 250_000;
+    let (mut leaks, mut mt_leaks, mut worst_spread) = ([0usize; 4], [0usize; 4], 0.0f64);
+    for kind in 0..4 {
+        for i in 0..per_kind {
+            let o = unit_vector(&mut r) * (0.5 * unif(&mut r).cbrt());
+            let target = match kind {
+                0 => o + unit_vector(&mut r),
+                1 => v[(r.next_u32() as usize) % v.len()],
+                _ => {
+                    let (a, b) = edges[(r.next_u32() as usize) % edges.len()];
+                    let s = if kind == 2 { unif(&mut r) } else { 0.5 };
+                    v[a as usize] + (v[b as usize] - v[a as usize]) * s
+                }
+            };
+            let ray = Ray::new(o, (target - o).normalize());
+            if bvh.closest_hit(&ray, Interval::POSITIVE).is_none() {
+                leaks[kind] += 1;
+            }
+            // Brute-force on a subset: every triangle reporting a hit agrees on t, and MT's leaks.
+            if i % 25 == 0 {
+                let ts: Vec<f64> = tris
+                    .iter()
+                    .filter_map(|t| intersect_watertight(t, &ray, Interval::POSITIVE))
+                    .map(|h| h.t as f64)
+                    .collect();
+                if ts.len() > 1 {
+                    let (lo, hi) = ts.iter().fold((f64::MAX, f64::MIN), |(a, b), &t| (a.min(t), b.max(t)));
+                    worst_spread = worst_spread.max((hi - lo) / (U * hi));
+                }
+                if !tris.iter().any(|t| intersect_moller_trumbore(t, &ray, Interval::POSITIVE).is_some()) {
+                    mt_leaks[kind] += 1;
+                }
+            }
+        }
+    }
+    println!(
+        "T1: watertight leaks {leaks:?} of {per_kind} per kind (random, vertex, edge, midpoint); \
+         Möller–Trumbore leaks {mt_leaks:?} of {} per kind; worst multi-hit t spread {worst_spread:.1} u·t",
+        per_kind / 25
+    );
+    assert_eq!(leaks, [0; 4]);
+    assert!(worst_spread <= 8.0);
+    assert!(mt_leaks[1] + mt_leaks[2] + mt_leaks[3] > 0, "the test must be able to see a leak");
+}
+
+/// T6: degenerate triangles never hit; near-degenerate ones never produce NaN or infinity.
+#[test]
+fn t6_degenerate_triangles_are_nan_free() {
+    let down = |x: f32, y: f32| Ray::new(Vec3A::new(x, y, 1.0), -Vec3A::Z);
+    let degenerate = [
+        Triangle::new(Vec3A::ZERO, Vec3A::ONE, Vec3A::splat(2.0)),
+        Triangle::new(Vec3A::ZERO, Vec3A::ZERO, Vec3A::X),
+        Triangle::new(Vec3A::ONE, Vec3A::ONE, Vec3A::ONE),
+    ];
+    for t in &degenerate {
+        for ray in [
+            down(0.5, 0.5),
+            down(1.0, 1.0),
+            down(0.0, 0.0),
+            Ray::new(Vec3A::new(-1.0, -1.0, -1.0), Vec3A::ONE.normalize()),
+        ] {
+            assert!(intersect_watertight(t, &ray, Interval::POSITIVE).is_none());
+            assert!(intersect_moller_trumbore(t, &ray, Interval::POSITIVE).is_none());
+        }
+    }
+    let mut r = rng(6);
+    let (mut hits, mut bad) = (0, 0);
+    for _ in 0..1_000_000 {
+        let v0 = Vec3A::new(unif(&mut r), unif(&mut r), 0.0) * 4.0;
+        let v1 = v0 + unit_vector(&mut r);
+        let s = unif(&mut r);
+        let h = 10f32.powf(-12.0 + 9.0 * unif(&mut r)) * (v1 - v0).length();
+        let perp = (v1 - v0).cross(Vec3A::Z).normalize_or_zero();
+        let v2 = v0.lerp(v1, s) + perp * h;
+        let aim = v0.lerp(v1, unif(&mut r));
+        let o = aim + unit_vector(&mut r) * 3.0;
+        let ray = Ray::new(o, (aim - o).normalize());
+        if let Some(hit) = intersect_watertight(&Triangle::new(v0, v1, v2), &ray, Interval::POSITIVE) {
+            hits += 1;
+            let ok = hit.t.is_finite()
+                && hit.t > 0.0
+                && hit.point.is_finite()
+                && hit.normal.is_finite()
+                && hit.uv.is_finite();
+            let b = [1.0 - hit.uv.x - hit.uv.y, hit.uv.x, hit.uv.y];
+            let inside = b.iter().all(|&x| x >= -4.0 * U as f32 && x <= 1.0 + 4.0 * U as f32);
+            if !ok || !inside || (hit.normal.length() - 1.0).abs() > 1e-5 {
+                bad += 1;
+            }
+        }
+    }
+    println!(
+        "T6: 1e6 near-degenerate triangles: {hits} hits, {bad} with NaN, inf, t <= 0 or barycentrics outside [-4u, 1+4u]"
+    );
+    assert_eq!(bad, 0);
+}
+
+/// T7: grazing rays on the unit right triangle and on the plane z = 0: the exact hit is at t = 0.5.
+#[test]
+fn t7_grazing_and_parallel_rays() {
+    let tri = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+    let plane = Plane { point: Vec3A::ZERO, normal: Vec3A::Z };
+    let mut table = Vec::new();
+    for m in [1e-2f32, 1e-4, 1e-6, 1e-7, 1e-8] {
+        let ray = Ray::new(Vec3A::new(0.0, 0.25, m / 2.0), Vec3A::new(1.0, 0.0, -m));
+        for (name, hit) in [
+            ("triangle", tri.intersect(&ray, Interval::POSITIVE)),
+            ("plane", plane.intersect(&ray, Interval::POSITIVE)),
+        ] {
+            match hit {
+                Some(h) => {
+                    assert!(h.t.is_finite());
+                    let err = (h.t - 0.5).abs();
+                    if m >= 1e-4 {
+                        assert!(err <= 1e-6, "{name} m={m}: t={}", h.t);
+                    } else {
+                        assert!(err <= 5e-4, "{name} m={m}: t={}", h.t);
+                    }
+                    table.push(format!("{name} m={m:e}: t={}", h.t));
+                }
+                None => {
+                    assert!(m < 1e-4, "{name} must hit at m={m}");
+                    table.push(format!("{name} m={m:e}: miss"));
+                }
+            }
+        }
+    }
+    for ray in [Ray::new(Vec3A::new(0.0, 0.25, 0.1), Vec3A::X), Ray::new(Vec3A::new(-1.0, 0.25, 0.0), Vec3A::X)] {
+        assert!(tri.intersect(&ray, Interval::POSITIVE).is_none());
+        assert!(plane.intersect(&ray, Interval::POSITIVE).is_none());
+    }
+    println!("T7: {}", table.join("; "));
+}
+
+/// R1: rays leaving a triangle from its hit point, offset by raylume's spawn routine, never hit the
+/// triangle again, at every size and translation; the offset stays within 512 ulps + 2^-15.
+#[test]
+fn r1_spawned_rays_never_rehit_their_surface() {
+    let mut r = rng(11);
+    let mut report = Vec::new();
+    for s in [1e-3f32, 1.0, 1e3, 1e5] {
+        for shift in [0.0f32, 1e3, 1e5] {
+            let (mut rehits, mut spawned, mut worst_offset) = (0usize, 0usize, 0.0f64);
+            for _ in 0..300 {
+                let base = Vec3A::splat(shift) + unit_vector(&mut r) * shift * 0.1;
+                let tri = Triangle::new(base, base + unit_vector(&mut r) * s, base + unit_vector(&mut r) * s);
+                let n = tri.normal();
+                if n.length() < 0.05 * s * s {
+                    continue;
+                }
+                let n = n.normalize();
+                let (b1, b2) = (unif(&mut r) * 0.8 + 0.1, unif(&mut r) * 0.8 + 0.1);
+                let (b1, b2) = if b1 + b2 > 0.95 { (b1 * 0.5, b2 * 0.5) } else { (b1, b2) };
+                let aim = tri.p[0] * (1.0 - b1 - b2) + tri.p[1] * b1 + tri.p[2] * b2;
+                let side = if unif(&mut r) < 0.5 { 1.0 } else { -1.0 };
+                let o = aim + (n * side + unit_vector(&mut r) * 0.5).normalize() * (10.0 * s);
+                let Some(hit) = tri.intersect(&Ray::new(o, (aim - o).normalize()), Interval::POSITIVE) else {
+                    continue;
+                };
+                let facing = if (o - hit.point).dot(hit.normal) > 0.0 { hit.normal } else { -hit.normal };
+                let origin = offset_ray_origin(hit.point, hit.error, facing);
+                let p_max = hit.point.abs().max_element() as f64;
+                let ulp = (p_max as f32).max(f32::MIN_POSITIVE).to_bits();
+                let ulp = (f32::from_bits(ulp + 1) - f32::from_bits(ulp)) as f64;
+                worst_offset = worst_offset.max((origin - hit.point).length() as f64 / (512.0 * ulp + 1.0 / 32768.0));
+                for _ in 0..1000 {
+                    let mut d = unit_vector(&mut r);
+                    if d.dot(facing) < 0.0 {
+                        d = -d;
+                    }
+                    spawned += 1;
+                    if tri.intersect(&Ray::new(origin, d), Interval::POSITIVE).is_some() {
+                        rehits += 1;
+                    }
+                }
+            }
+            report.push(format!("S={s:e} T={shift:e}: {rehits}/{spawned}"));
+            assert_eq!(rehits, 0, "S={s} T={shift}");
+            assert!(worst_offset <= 1.0, "offset too large: {worst_offset} of the allowance");
+        }
+    }
+    println!("R1: re-hits {}", report.join(", "));
+}
+
+/// S1: a sphere of radius 1e-3 at distance D: hit/miss agrees with f64 outside a 16 u D band, and t
+/// within 16 u t.
+#[test]
+fn s1_small_sphere_far_away() {
+    let mut r = rng(21);
+    let mut report = Vec::new();
+    for dist in [1.0f32, 10.0, 100.0, 1000.0] {
+        let (mut wrong, mut worst_t) = (0usize, 0.0f64);
+        for _ in 0..100_000 {
+            let radius = 1e-3f32;
+            let c = unit_vector(&mut r) * dist;
+            let (s, t) = raylume::geometry::orthonormal_basis(c.normalize());
+            let a = std::f32::consts::TAU * unif(&mut r);
+            let rr = 1.05 * radius * unif(&mut r).sqrt();
+            let aim = c + (s * a.cos() + t * a.sin()) * rr;
+            let dir = if unif(&mut r) < 0.5 { aim.normalize() } else { aim * 3.7 };
+            let ray = Ray::new(Vec3A::ZERO, dir);
+            // f64 reference.
+            let d = [dir.x as f64, dir.y as f64, dir.z as f64];
+            let cc = [c.x as f64, c.y as f64, c.z as f64];
+            let dd = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let dn = [d[0] / dd, d[1] / dd, d[2] / dd];
+            let proj = cc[0] * dn[0] + cc[1] * dn[1] + cc[2] * dn[2];
+            let perp2 = (cc[0] * cc[0] + cc[1] * cc[1] + cc[2] * cc[2]) - proj * proj;
+            let l_ref = perp2.max(0.0).sqrt();
+            let hit = Sphere { center: c, radius }.intersect(&ray, Interval::POSITIVE);
+            let expect = l_ref < radius as f64;
+            if (l_ref - radius as f64).abs() > 16.0 * U * dist as f64 {
+                if hit.is_some() != expect {
+                    wrong += 1;
+                }
+                if let Some(h) = hit {
+                    let t_ref = (proj - (radius as f64 * radius as f64 - perp2).sqrt()) / dd;
+                    worst_t = worst_t.max((h.t as f64 - t_ref).abs() / (U * t_ref));
+                }
+            }
+        }
+        report.push(format!("D={dist}: {wrong} wrong, worst |dt| {worst_t:.1} u·t"));
+        assert_eq!(wrong, 0, "D={dist}");
+        assert!(worst_t <= 16.0, "D={dist}: {worst_t}");
+    }
+    println!("S1: {}", report.join("; "));
+}
+
+/// S3: from inside a huge sphere, exactly one hit: the exit, back-facing, at the right distance.
+#[test]
+fn s3_origin_inside_a_huge_sphere() {
+    let mut r = rng(31);
+    for (radius, frac) in [(1e5f32, 0.0f32), (1e5, 0.5), (1e5, 0.999), (1.0, 0.0)] {
+        let sphere = Sphere { center: Vec3A::ZERO, radius };
+        for _ in 0..10_000 {
+            let o = unit_vector(&mut r) * radius * frac;
+            let d = unit_vector(&mut r);
+            let ray = Ray::new(o, d);
+            let hit = sphere.intersect(&ray, Interval::POSITIVE).expect("the exit");
+            assert!(!hit.front_face(&ray));
+            let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
+            let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
+            let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
+            let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
+            let t_ref = (-od + (od * od - dd * (oo - (radius as f64).powi(2))).sqrt()) / dd;
+            assert!(
+                (hit.t as f64 - t_ref).abs() <= 8.0 * U * (o.length() as f64 + radius as f64),
+                "r={radius} frac={frac}: t {} vs {t_ref} (o {o:?}, d {d:?})",
+                hit.t
+            );
+        }
+    }
+    println!("S3: 40 000 rays from inside spheres of radius 1 and 1e5: every one found its exit");
+}
+
+/// PL1: planes never report NaN or infinite hits; parallel and in-plane rays miss.
+#[test]
+fn pl1_plane_nan_safety() {
+    let mut r = rng(41);
+    let plane = Plane { point: Vec3A::new(0.0, -2.0, 0.0), normal: Vec3A::Y };
+    let mut bad = 0;
+    for _ in 0..1_000_000 {
+        let h = 10f32.powf(-6.0 + 9.0 * unif(&mut r)) * if unif(&mut r) < 0.5 { 1.0 } else { -1.0 };
+        let m = match r.next_u32() % 5 {
+            0 => 0.0,
+            1 => -0.0,
+            2 => 1e-40,
+            _ => 10f32.powf(-30.0 + 30.0 * unif(&mut r)),
+        } * if unif(&mut r) < 0.5 { 1.0 } else { -1.0 };
+        let ray = Ray::new(Vec3A::new(0.0, -2.0 + h, 0.0), Vec3A::new(1.0, m, 0.0));
+        if let Some(hit) = plane.intersect(&ray, Interval::POSITIVE) {
+            if !hit.t.is_finite() || !hit.point.is_finite() || m == 0.0 {
+                bad += 1;
+            }
+        }
+    }
+    assert!(plane.intersect(&Ray::new(Vec3A::new(0.0, -2.0, 0.0), Vec3A::X), Interval::POSITIVE).is_none());
+    println!("PL1: 1e6 near-parallel rays: {bad} NaN, infinite or parallel hits");
+    assert_eq!(bad, 0);
+}
+
+/// B1: rays lying in a box's faces (with +0 and -0 components), along an edge, through a corner, and
+/// through flat and point boxes, all hit the conservative node test, the same for ±0 and subnormals.
+#[test]
+fn b1_slab_in_face_rays() {
+    let unit = raylume::geometry::Aabb::new(Vec3A::ZERO, Vec3A::ONE);
+    let node_hit =
+        |b: &raylume::geometry::Aabb, ray: &Ray| b.hit_range(ray, ray.dir.recip(), 0.0, f32::INFINITY).is_some();
+    let mut hits = 0;
+    for axis in 0..3 {
+        for face in [0.0f32, 1.0] {
+            for zero in [0.0f32, -0.0, 1e-40, -1e-40] {
+                let travel = (axis + 1) % 3;
+                let mut o = Vec3A::splat(0.5);
+                o[axis] = face;
+                o[travel] = -1.0;
+                let mut d = Vec3A::ZERO;
+                d[travel] = 1.0;
+                d[axis] = zero;
+                let ray = Ray::new(o, d);
+                assert!(node_hit(&unit, &ray), "axis {axis} face {face} zero {zero}");
+                hits += 1;
+            }
+        }
+    }
+    assert!(node_hit(&unit, &Ray::new(Vec3A::new(1.0, 1.0, -1.0), Vec3A::Z)), "along an edge");
+    let corner_box = raylume::geometry::Aabb::new(Vec3A::ONE, Vec3A::splat(2.0));
+    assert!(node_hit(&corner_box, &Ray::new(Vec3A::ZERO, Vec3A::ONE.normalize())), "through the corner");
+    let flat = raylume::geometry::Aabb::new(Vec3A::new(0.0, 0.0, 0.5), Vec3A::new(1.0, 1.0, 0.5));
+    assert!(node_hit(&flat, &Ray::new(Vec3A::new(0.5, 0.5, 2.0), -Vec3A::Z)));
+    assert!(
+        node_hit(&flat, &Ray::new(Vec3A::new(-1.0, 0.5, 0.5), Vec3A::new(1.0, 0.0, -0.0))),
+        "in the flat box's plane"
+    );
+    let point = raylume::geometry::Aabb::from_point(Vec3A::splat(3.0));
+    assert!(node_hit(&point, &Ray::new(Vec3A::ZERO, Vec3A::ONE.normalize())));
+    // And the box primitive in the BVH: a ray along an edge of a box finds it.
+    let b = Primitive::Box(AaBox { bounds: unit });
+    let bvh = Bvh::new(vec![b], Interval::new(0.0, 0.0));
+    assert!(
+        bvh.closest_hit(&Ray::new(Vec3A::new(1.0, 1.0, -1.0), Vec3A::new(-0.0, 0.0, 1.0)), Interval::POSITIVE)
+            .is_some()
+    );
+    println!(
+        "B1: {hits} of 24 in-face rays (±0 and ±subnormal components) hit the node test; edge, corner, flat and point boxes too"
+    );
+}
+
+/// G3: a grid over a lattice of small spheres: rays along the diagonal and through lattice edges,
+/// from outside and from the max face, find the same spheres as brute force.
+#[test]
+fn g3_grid_lattice_rays() {
+    for scale in [1.0f32, 312.5] {
+        let mut prims = Vec::new();
+        for i in 0..64 {
+            let c = i as f32 * scale;
+            prims.push(Primitive::Sphere(Sphere { center: Vec3A::splat(c), radius: 0.05 * scale }));
+            prims.push(Primitive::Sphere(Sphere { center: Vec3A::new(c, c, 0.0), radius: 0.05 * scale }));
+        }
+        let brute = BruteForce::new(prims.clone());
+        let grid =
+            Grid::new(prims, Interval::new(0.0, 0.0), GridParams { k: 64.0 * 64.0 * 64.0 / 128.0, mailbox: true });
+        let rays = [
+            Ray::new(Vec3A::splat(-1.0) * scale, Vec3A::ONE.normalize()),
+            Ray::new(Vec3A::new(-1.0, -1.0, 0.0) * scale, Vec3A::new(1.0, 1.0, 0.0).normalize()),
+            Ray::new(Vec3A::splat(63.0) * scale, -Vec3A::ONE.normalize()),
+            Ray::new(Vec3A::new(63.0, 63.0, 0.0) * scale, Vec3A::new(-1.0, -1.0, -0.0).normalize()),
+            Ray::new(Vec3A::new(31.0 * scale, 31.0 * scale, -10.0 * scale), Vec3A::Z),
+        ];
+        for ray in rays {
+            let (a, b) = (brute.closest_hit(&ray, Interval::POSITIVE), grid.closest_hit(&ray, Interval::POSITIVE));
+            assert_eq!(a.map(|h| (h.primitive, h.hit.t)), b.map(|h| (h.primitive, h.hit.t)), "scale {scale}, {ray:?}");
+            assert_eq!(brute.occluded(&ray, f32::INFINITY), grid.occluded(&ray, f32::INFINITY));
+        }
+    }
+    println!("G3: diagonal, lattice-edge, max-face and axis rays agree with brute force on a 64-per-axis lattice");
+}
+
+/// X2: rays with NaN or infinite parts, or no direction, return no hit from every accelerator, fast.
+#[test]
+fn x2_invalid_rays() {
+    let mut r = rng(51);
+    let prims: Vec<Primitive> = (0..10_000)
+        .map(|_| {
+            let c = unit_vector(&mut r) * 10.0 * unif(&mut r);
+            Primitive::Triangle(Triangle::new(c, c + unit_vector(&mut r) * 0.2, c + unit_vector(&mut r) * 0.2))
+        })
+        .collect();
+    let shutter = Interval::new(0.0, 0.0);
+    let bvh = Bvh::new(prims.clone(), shutter);
+    let grid = Grid::new(prims.clone(), shutter, GridParams::default());
+    let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+    let mut invalid = Vec::new();
+    for i in 0..10_000 {
+        let mut o = unit_vector(&mut r) * 20.0;
+        let mut d = unit_vector(&mut r);
+        match i % 4 {
+            0 => o[i % 3] = specials[i % 3],
+            1 => d[i % 3] = specials[(i / 3) % 3],
+            2 => d = Vec3A::ZERO,
+            _ => o = Vec3A::splat(f32::NAN),
+        }
+        invalid.push(Ray::new(o, d));
+    }
+    let valid: Vec<Ray> = (0..10_000).map(|_| Ray::new(unit_vector(&mut r) * 20.0, unit_vector(&mut r))).collect();
+    let time = |rays: &[Ray]| {
+        let start = std::time::Instant::now();
+        let hits = rays
+            .iter()
+            .filter(|ray| bvh.closest_hit(ray, Interval::POSITIVE).is_some() || grid.occluded(ray, f32::INFINITY))
+            .count();
+        (hits, start.elapsed().as_secs_f64())
+    };
+    let (bad_hits, t_invalid) = time(&invalid);
+    let (_, t_valid) = time(&valid);
+    let brute = BruteForce::new(prims);
+    assert!(invalid.iter().all(|ray| brute.closest_hit(ray, Interval::POSITIVE).is_none()));
+    println!(
+        "X2: 10 000 invalid rays: {bad_hits} hits, {:.2} ms (valid rays: {:.2} ms)",
+        t_invalid * 1e3,
+        t_valid * 1e3
+    );
+    assert_eq!(bad_hits, 0);
+}
