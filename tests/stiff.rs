@@ -9,7 +9,7 @@ use std::collections::HashMap;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use raylume::accel::{Grid, GridParams};
-use raylume::geometry::{AaBox, Plane, Sphere, Triangle, offset_ray_origin};
+use raylume::geometry::{AaBox, Plane, Sphere, Triangle, offset_ray_origin, spawn_ray_to};
 use raylume::intersect::{intersect_moller_trumbore, intersect_watertight};
 use raylume::prelude::*;
 
@@ -505,4 +505,365 @@ fn x2_invalid_rays() {
         t_valid * 1e3
     );
     assert_eq!(bad_hits, 0);
+}
+
+/// B2: rays aimed at f32 points exactly on the faces of small, distant boxes always pass the
+/// conservative node test.
+#[test]
+fn b2_conservative_far_traversal() {
+    let mut r = rng(61);
+    let mut misses = 0;
+    for _ in 0..1_000_000 {
+        let size = 10f32.powf(-4.0 + 4.0 * unif(&mut r));
+        let centre = unit_vector(&mut r) * 10f32.powf(2.0 + 3.0 * unif(&mut r));
+        let b = raylume::geometry::Aabb::new(centre - Vec3A::splat(size), centre + Vec3A::splat(size));
+        let axis = (r.next_u32() % 3) as usize;
+        let mut target = b.min + (b.max - b.min) * Vec3A::new(unif(&mut r), unif(&mut r), unif(&mut r));
+        target[axis] = if unif(&mut r) < 0.5 { b.min[axis] } else { b.max[axis] };
+        let ray = Ray::new(Vec3A::ZERO, target.normalize());
+        if b.hit_range(&ray, ray.dir.recip(), 0.0, f32::INFINITY).is_none() {
+            misses += 1;
+        }
+    }
+    println!("B2: 1e6 rays at points on far box faces: {misses} false misses");
+    assert_eq!(misses, 0);
+}
+
+/// B3: the box primitive at edges, corners and from inside: t >= 0 and an axis-aligned unit normal
+/// facing the ray (outward from inside).
+#[test]
+fn b3_box_edges_corners_inside() {
+    let mut r = rng(71);
+    let mut bad = 0;
+    for i in 0..100_000 {
+        let half = Vec3A::new(
+            10f32.powf(-3.0 + 6.0 * unif(&mut r)),
+            10f32.powf(-3.0 + 6.0 * unif(&mut r)),
+            10f32.powf(-3.0 + 6.0 * unif(&mut r)),
+        );
+        let centre = unit_vector(&mut r) * 10f32.powf(5.0 * unif(&mut r));
+        let b = AaBox { bounds: raylume::geometry::Aabb::new(centre - half, centre + half) };
+        let pick = |r: &mut Pcg32, a: usize| if unif(r) < 0.5 { b.bounds.min[a] } else { b.bounds.max[a] };
+        let (ray, inside) = match i % 4 {
+            0 => {
+                // An edge point: two coordinates on the bounds.
+                let mut t =
+                    b.bounds.min + (b.bounds.max - b.bounds.min) * Vec3A::new(unif(&mut r), unif(&mut r), unif(&mut r));
+                let a = (r.next_u32() % 3) as usize;
+                t[a] = pick(&mut r, a);
+                t[(a + 1) % 3] = pick(&mut r, (a + 1) % 3);
+                let o = t + unit_vector(&mut r).abs().max(Vec3A::splat(0.1)) * (half * 4.0) * (t - centre).signum();
+                (Ray::new(o, (t - o).normalize()), false)
+            }
+            1 => {
+                let t = Vec3A::new(pick(&mut r, 0), pick(&mut r, 1), pick(&mut r, 2));
+                let o = t + (t - centre) * 3.0;
+                (Ray::new(o, (t - o).normalize()), false)
+            }
+            _ => {
+                let o =
+                    b.bounds.min + (b.bounds.max - b.bounds.min) * Vec3A::new(unif(&mut r), unif(&mut r), unif(&mut r));
+                (Ray::new(o, unit_vector(&mut r)), true)
+            }
+        };
+        match b.intersect(&ray, Interval::POSITIVE) {
+            Some(h) => {
+                let axis_aligned = h.normal.abs().max_element() == 1.0 && h.normal.abs().min_element() == 0.0;
+                let facing = if inside { h.normal.dot(ray.dir) > 0.0 } else { h.normal.dot(ray.dir) <= 0.0 };
+                if h.t.is_nan() || h.t < 0.0 || !axis_aligned || !facing {
+                    bad += 1;
+                }
+            }
+            None => {
+                if inside {
+                    bad += 1;
+                }
+            }
+        }
+    }
+    println!("B3: 1e5 edge, corner and inside rays: {bad} with negative t, a bad normal or a missed exit");
+    assert_eq!(bad, 0);
+}
+
+/// B4: +0 and -0 direction components give bit-identical answers from every accelerator.
+#[test]
+fn b4_signed_zero_invariance() {
+    let mut r = rng(81);
+    let mut mismatches = 0;
+    for scene in 0..50 {
+        let mut prims: Vec<Primitive> = (0..200)
+            .map(|i| {
+                let c = Vec3A::new(unif(&mut r), unif(&mut r), unif(&mut r)) * 8.0;
+                match i % 3 {
+                    0 => Primitive::Sphere(Sphere { center: c, radius: 0.3 }),
+                    1 => Primitive::Triangle(Triangle::new(c, c + Vec3A::X, c + Vec3A::Y)),
+                    _ => Primitive::Box(AaBox { bounds: raylume::geometry::Aabb::new(c, c + Vec3A::splat(0.5)) }),
+                }
+            })
+            .collect();
+        if scene % 2 == 0 {
+            prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -1.0, 0.0), normal: Vec3A::Y }));
+        }
+        let shutter = Interval::new(0.0, 0.0);
+        let bvh = Bvh::new(prims.clone(), shutter);
+        let grid = Grid::new(prims.clone(), shutter, GridParams::default());
+        let brute = BruteForce::new(prims);
+        for _ in 0..2000 {
+            let o = Vec3A::new(unif(&mut r), unif(&mut r), unif(&mut r)) * 10.0 - Vec3A::splat(1.0);
+            let mut d = unit_vector(&mut r);
+            let zeroed = (r.next_u32() % 3) as usize;
+            d[zeroed] = 0.0;
+            if r.next_u32() % 2 == 0 {
+                d[(zeroed + 1) % 3] = 0.0;
+            }
+            if d == Vec3A::ZERO {
+                continue;
+            }
+            let mut neg = d;
+            for a in 0..3 {
+                if neg[a] == 0.0 {
+                    neg[a] = -0.0;
+                }
+            }
+            let key = |h: Option<raylume::accel::PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits()));
+            let a = (Ray::new(o, d), Ray::new(o, neg));
+            let answers = [
+                (key(brute.closest_hit(&a.0, Interval::POSITIVE)), key(brute.closest_hit(&a.1, Interval::POSITIVE))),
+                (key(bvh.closest_hit(&a.0, Interval::POSITIVE)), key(bvh.closest_hit(&a.1, Interval::POSITIVE))),
+                (key(grid.closest_hit(&a.0, Interval::POSITIVE)), key(grid.closest_hit(&a.1, Interval::POSITIVE))),
+            ];
+            if answers.iter().any(|(x, y)| x != y) || answers[0].0 != answers[1].0 || answers[0].0 != answers[2].0 {
+                mismatches += 1;
+            }
+        }
+    }
+    println!(
+        "B4: 50 scenes x 2000 axis-parallel rays: {mismatches} differences between +0 and -0 or between accelerators"
+    );
+    assert_eq!(mismatches, 0);
+}
+
+/// S2: huge spheres seen from just above their surface: t within 8 u (|o - c| + r) of f64.
+#[test]
+fn s2_large_sphere_origin_near_surface() {
+    let mut r = rng(91);
+    let mut worst = 0.0f64;
+    let mut checked = 0;
+    for radius in [1e2f32, 1e4, 1e6] {
+        for h in [1e-2f32, 1.0, 1e2] {
+            let sphere = Sphere { center: Vec3A::ZERO, radius };
+            for _ in 0..20_000 {
+                let up = unit_vector(&mut r);
+                let o = up * (radius + h);
+                let (s, t) = raylume::geometry::orthonormal_basis(up);
+                let lateral = (s * (unif(&mut r) - 0.5) + t * (unif(&mut r) - 0.5)) * (6.0 * h);
+                let target = up * radius + lateral;
+                let d = (target - o).normalize();
+                let cos = -d.dot(up);
+                let bound = 8.0 * U * (o.length() as f64 + radius as f64);
+                let hit = sphere.intersect(&Ray::new(o, d), Interval::POSITIVE);
+                if let Some(h) = hit {
+                    assert!(h.t.is_finite() && h.t >= 0.0);
+                }
+                if cos < 0.1 || (h as f64) < bound {
+                    continue;
+                }
+                let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
+                let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
+                let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
+                let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
+                let disc = od * od - dd * (oo - (radius as f64).powi(2));
+                if disc < 0.0 {
+                    continue;
+                }
+                let t_ref = (-od - disc.sqrt()) / dd;
+                let got = hit.expect("a ray aimed at a huge sphere below hits it").t as f64;
+                worst = worst.max((got - t_ref).abs() / (U * (o.length() as f64 + radius as f64)));
+                checked += 1;
+            }
+        }
+    }
+    println!("S2: {checked} rays: worst |t - t_ref| = {worst:.2} u·(|o-c|+r)");
+    assert!(worst <= 8.0);
+}
+
+/// S4: a grid of parallel rays over a sphere, and exactly tangent rays: hit iff inside the disc
+/// outside a thin band; no NaN.
+#[test]
+fn s4_tangent_and_silhouette_rays() {
+    let mut r = rng(101);
+    let mut wrong = 0;
+    for radius in [1.0f32, 3.0] {
+        for _ in 0..20 {
+            let c = unit_vector(&mut r) * 1e3 * unif(&mut r);
+            let w = unit_vector(&mut r);
+            let (s, t) = raylume::geometry::orthonormal_basis(w);
+            let sphere = Sphere { center: c, radius };
+            let band = 8.0 * U * (radius as f64).powi(2) * (c.length() as f64 / radius as f64).max(1.0);
+            let mut offsets: Vec<(f32, f32)> = Vec::new();
+            for i in 0..21 {
+                for j in 0..21 {
+                    offsets.push((radius * (i as f32 / 10.0 - 1.0), radius * (j as f32 / 10.0 - 1.0)));
+                }
+            }
+            for k in 10..=24 {
+                let e = 2f32.powi(-k);
+                offsets.push((radius * (1.0 + e), 0.0));
+                offsets.push((radius * (1.0 - e), 0.0));
+            }
+            offsets.push((radius, 0.0));
+            for (x, y) in offsets {
+                let o = c + s * x + t * y - w * (8.0 * radius);
+                let ray = Ray::new(o, w);
+                let hit = sphere.intersect(&ray, Interval::POSITIVE);
+                if let Some(h) = hit {
+                    assert!(h.t.is_finite() && h.point.is_finite() && h.normal.is_finite());
+                }
+                // The f64 offset of the actual f32 ray from the centre.
+                let oc = (o - c).to_array().map(f64::from);
+                let w64 = w.to_array().map(f64::from);
+                let along: f64 = (0..3).map(|a| oc[a] * w64[a]).sum();
+                let d2: f64 = (0..3).map(|a| (oc[a] - along * w64[a]).powi(2)).sum();
+                let r2 = (radius as f64).powi(2);
+                if (d2 - r2).abs() > band && hit.is_some() != (d2 < r2) {
+                    wrong += 1;
+                }
+            }
+        }
+    }
+    println!("S4: 21x21 grids and tangent rays over 40 spheres: {wrong} misclassified outside the band, no NaN");
+    assert_eq!(wrong, 0);
+}
+
+/// R4: shadow rays between two facing surfaces are never falsely occluded by either end, and an
+/// occluder between them is always found.
+#[test]
+fn r4_shadow_rays_between_surfaces() {
+    let mut r = rng(111);
+    let mut report = Vec::new();
+    for h in [1e-3f32, 1.0, 1e3] {
+        for shift in [0.0f32, 1e4] {
+            let base = Vec3A::splat(shift);
+            let size = h.max(1.0) * 4.0;
+            let a = Triangle::new(
+                base + Vec3A::new(-size, -size, 0.0),
+                base + Vec3A::new(size, -size, 0.0),
+                base + Vec3A::new(0.0, size, 0.0),
+            );
+            let b = Triangle::new(
+                base + Vec3A::new(-size, -size, h),
+                base + Vec3A::new(0.0, size, h),
+                base + Vec3A::new(size, -size, h),
+            );
+            let mid = Triangle::new(
+                base + Vec3A::new(-size, -size, h / 2.0),
+                base + Vec3A::new(size, -size, h / 2.0),
+                base + Vec3A::new(0.0, size, h / 2.0),
+            );
+            let (mut false_occlusions, mut missed) = (0, 0);
+            let prims = vec![Primitive::Triangle(a), Primitive::Triangle(b)];
+            let with_mid = vec![Primitive::Triangle(a), Primitive::Triangle(b), Primitive::Triangle(mid)];
+            let (plain, blocked) = (BruteForce::new(prims), BruteForce::new(with_mid));
+            for _ in 0..10_000 {
+                let point = |r: &mut Pcg32, z: f32| {
+                    let (u, v) = (unif(r) * 0.5, unif(r) * 0.5);
+                    base + Vec3A::new((u - v) * size, (u + v) * size - size * 0.5, z)
+                };
+                let (pa, pb) = (point(&mut r, 0.0), point(&mut r, h));
+                // Both ends come from hits, so their error bounds are those of the routine.
+                let hit_a = a.intersect(&Ray::new(pa + Vec3A::Z * (h * 0.5), -Vec3A::Z), Interval::POSITIVE);
+                let hit_b = b.intersect(&Ray::new(pb - Vec3A::Z * (h * 0.5), Vec3A::Z), Interval::POSITIVE);
+                let (Some(ha), Some(hb)) = (hit_a, hit_b) else { continue };
+                let (ray, dist) = spawn_ray_to(ha.point, ha.error, Vec3A::Z, hb.point, hb.error, -Vec3A::Z);
+                if plain.occluded(&ray, dist) {
+                    false_occlusions += 1;
+                }
+                if !blocked.occluded(&ray, dist) {
+                    missed += 1;
+                }
+            }
+            report.push(format!("h={h:e} T={shift:e}: {false_occlusions} false, {missed} missed"));
+            // ulp of the coordinates; surfaces closer than a few ulps are not distinct in f32.
+            let ulp = (shift.max(size) as f64) * U * 2.0;
+            if h as f64 >= 16.0 * ulp {
+                assert_eq!(false_occlusions, 0, "h={h} T={shift}");
+            }
+            if h as f64 >= 4096.0 * ulp {
+                assert_eq!(missed, 0, "h={h} T={shift}");
+            }
+        }
+    }
+    println!(
+        "R4 (surfaces closer than 16 ulps of their coordinates are not distinct in f32 and not asserted): {}",
+        report.join(", ")
+    );
+}
+
+/// Own case O1: the same lit sphere on a floor, rendered at scales 1e-4 to 1e6 (camera, lights and
+/// geometry scaled together), gives the same picture: no acne, no light leaking, at any scale.
+#[test]
+fn o1_images_are_scale_invariant() {
+    let render = |k: f32| {
+        let scene = SceneBuilder::new()
+            .camera(Vec3A::new(0.0, 1.5, 5.0) * k, Vec3A::new(0.0, 0.5, 0.0) * k, Vec3A::Y, 40.0, 64, 48)
+            .background(Vec3::new(0.2, 0.3, 0.5))
+            .light(Vec3A::new(3.0, 5.0, 4.0) * k, Vec3::ONE)
+            .material(Phong {
+                diffuse: Vec3::splat(0.8),
+                kd: 0.9,
+                specular: Vec3::ONE,
+                ks: 0.3,
+                shine: 30.0,
+                ..Phong::default()
+            })
+            .plane([Vec3A::ZERO, Vec3A::new(0.0, 0.0, -k), Vec3A::new(-k, 0.0, 0.0)])
+            .sphere(Vec3A::new(0.0, 1.0, 0.0) * k, k)
+            .triangle(Vec3A::new(1.2, 0.0, 1.0) * k, Vec3A::new(2.2, 0.0, 1.0) * k, Vec3A::new(1.7, 1.0, 1.0) * k)
+            .build()
+            .unwrap();
+        scene.render(&RenderOptions::default(), &|| {}).unwrap().film
+    };
+    let reference = render(1.0);
+    let mut report = Vec::new();
+    for k in [1e-4f32, 1e-2, 1e2, 1e4, 1e6] {
+        let film = render(k);
+        let differing = film
+            .pixels()
+            .iter()
+            .zip(reference.pixels())
+            .filter(|(a, b)| (**a - **b).abs().max_element() > 0.02)
+            .count();
+        report.push(format!("scale {k:e}: {differing} pixels differ"));
+        // A pixel or two on silhouettes may round differently; acne would darken hundreds.
+        assert!(differing <= 4, "scale {k}: {differing} pixels differ from scale 1");
+    }
+    println!("O1: {} (of {} pixels)", report.join(", "), 64 * 48);
+}
+
+/// Own case O2: triangles of side 1e-6 and 1e6, seen from proportional distances, are hit at the
+/// f64 distance.
+#[test]
+fn o2_tiny_and_huge_triangles() {
+    let mut r = rng(121);
+    for side in [1e-6f32, 1e-3, 1.0, 1e3, 1e6] {
+        for _ in 0..10_000 {
+            let a = unit_vector(&mut r) * side;
+            let tri = Triangle::new(a, a + unit_vector(&mut r) * side, a + unit_vector(&mut r) * side);
+            if tri.normal().length() < 0.1 * side * side {
+                continue;
+            }
+            let centroid = (tri.p[0] + tri.p[1] + tri.p[2]) / 3.0;
+            let o = centroid + unit_vector(&mut r) * (5.0 * side);
+            let ray = Ray::new(o, (centroid - o).normalize());
+            if tri.normal().normalize().dot(ray.dir).abs() < 0.05 {
+                continue;
+            }
+            let hit = tri
+                .intersect(&ray, Interval::POSITIVE)
+                .unwrap_or_else(|| panic!("side {side}: a ray at the centroid must hit"));
+            let t_ref = (centroid - o).length();
+            assert!((hit.t - t_ref).abs() <= 1e-4 * t_ref, "side {side}: t {} vs {t_ref}", hit.t);
+        }
+    }
+    println!("O2: rays at the centroids of triangles of side 1e-6 to 1e6 all hit, t within 1e-4 relative");
 }

@@ -76,3 +76,28 @@ pub fn offset_ray_origin(p: Vec3A, error: Vec3A, n: Vec3A) -> Vec3A {
     }
     o
 }
+
+/// The ray from a point on one surface to a point on another, both moved off their surfaces past
+/// their error bounds (`n_from`, `n_to`: normals on the sides the ray leaves and arrives from), with
+/// the parameter range that stops just short of the far end: pbrt-v4's `SpawnRayTo`. The direction is
+/// not normalised: `t` runs from 0 to `1 - SHADOW_EPSILON`.
+///
+/// ```
+/// use raylume_geometry::{spawn_ray_to, Vec3A};
+/// let (ray, t_max) = spawn_ray_to(Vec3A::ZERO, Vec3A::splat(1e-7), Vec3A::Z, Vec3A::new(0.0, 0.0, 2.0), Vec3A::splat(1e-7), -Vec3A::Z);
+/// assert!(ray.origin.z > 0.0 && ray.at(t_max).z < 2.0);
+/// ```
+#[inline]
+pub fn spawn_ray_to(
+    from: Vec3A,
+    from_error: Vec3A,
+    n_from: Vec3A,
+    to: Vec3A,
+    to_error: Vec3A,
+    n_to: Vec3A,
+) -> (Ray, f32) {
+    const SHADOW_EPSILON: f32 = 1e-4;
+    let o = offset_ray_origin(from, from_error, n_from);
+    let t = offset_ray_origin(to, to_error, n_to);
+    (Ray::new(o, t - o), 1.0 - SHADOW_EPSILON)
+}

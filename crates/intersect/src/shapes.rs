@@ -227,39 +227,39 @@ impl Intersect for Plane {
 }
 
 impl Intersect for AaBox {
-    /// The slab test; a ray starting inside gets the exit point. The normal is the one of the face hit.
+    /// The slab test. A ray from outside hits where it enters; a ray from inside (or starting on a
+    /// face and going in) hits where it leaves. The normal is the face's, outward, chosen from the
+    /// slab that decided the entry or the exit, so it always agrees with the ray's direction (ties at
+    /// edges and corners go to the lowest axis); the point is put exactly on that face.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         let inv = ray.dir.recip();
         let (t0, t1) = self.bounds.hit_range(ray, inv, f32::NEG_INFINITY, f32::INFINITY)?;
-        let t = if t_range.contains(t0) {
+        let entering = t0 > 0.0 && t_range.contains(t0);
+        let t = if entering {
             t0
         } else if t_range.contains(t1) {
             t1
         } else {
             return None;
         };
-        let mut point = ray.at(t);
-        // The face hit is the one the point is closest to, relative to the box size.
-        let size = self.bounds.diagonal().max(Vec3A::splat(f32::MIN_POSITIVE));
-        let d_min = ((point - self.bounds.min) / size).abs();
-        let d_max = ((self.bounds.max - point) / size).abs();
-        let mut best = f32::INFINITY;
-        let (mut normal, mut face) = (Vec3A::X, 0);
-        for axis in 0..3 {
-            let mut unit = Vec3A::ZERO;
-            unit[axis] = 1.0;
-            if d_min[axis] < best {
-                best = d_min[axis];
-                (normal, face) = (-unit, axis);
-            }
-            if d_max[axis] < best {
-                best = d_max[axis];
-                (normal, face) = (unit, axis);
+        let t_lo = (self.bounds.min - ray.origin) * inv;
+        let t_hi = (self.bounds.max - ray.origin) * inv;
+        let parallel = ray.dir.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE)) | t_lo.is_nan_mask() | t_hi.is_nan_mask();
+        let near = Vec3A::select(parallel, Vec3A::NEG_INFINITY, t_lo.min(t_hi));
+        let far = Vec3A::select(parallel, Vec3A::INFINITY, t_lo.max(t_hi));
+        let mut face = 0;
+        for a in 1..3 {
+            if (entering && near[a] > near[face]) || (!entering && far[a] < far[face]) {
+                face = a;
             }
         }
-        // The point lies exactly on the face's plane; only the other two coordinates carry error.
-        point[face] = if normal[face] > 0.0 { self.bounds.max[face] } else { self.bounds.min[face] };
+        let positive = ray.dir[face] > 0.0;
+        let outward = if entering { !positive } else { positive };
+        let mut normal = Vec3A::ZERO;
+        normal[face] = if outward { 1.0 } else { -1.0 };
+        let mut point = ray.at(t);
+        point[face] = if outward { self.bounds.max[face] } else { self.bounds.min[face] };
         let mut error = travel_error(ray, t, 3);
         error[face] = 0.0;
         Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
