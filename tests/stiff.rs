@@ -867,3 +867,209 @@ fn o2_tiny_and_huge_triangles() {
     }
     println!("O2: rays at the centroids of triangles of side 1e-6 to 1e6 all hit, t within 1e-4 relative");
 }
+
+/// A uniformly random rotation (from a random unit quaternion).
+fn rotation(r: &mut Pcg32) -> glam::Mat3A {
+    let q = glam::Quat::from_xyzw(unif(r) - 0.5, unif(r) - 0.5, unif(r) - 0.5, unif(r) - 0.5).normalize();
+    glam::Mat3A::from_quat(q)
+}
+
+/// T4: tiny right triangles and needles, hit through the centroid at the f64 distance; points just
+/// outside an edge are missed; never NaN, never t <= 0.
+#[test]
+fn t4_tiny_and_needle_triangles() {
+    let mut r = rng(131);
+    let (mut wrong, mut total, mut worst_t) = (0usize, 0usize, 0.0f64);
+    // Needles the conservative t check rejects, by w/l decade (1e-6, 1e-5, ... 1e-2).
+    let (mut needle_misses, mut needles) = ([0usize; 5], [0usize; 5]);
+    for i in 0..200_000 {
+        let rot = rotation(&mut r);
+        if i % 2 == 0 {
+            let s = 10f32.powf(-5.0 + 7.0 * unif(&mut r));
+            let l = 10f32.powf(-2.0 + 5.0 * unif(&mut r));
+            if (s / l) < 1e-5 {
+                continue;
+            }
+            let c = rot * Vec3A::new(0.0, 0.0, -l);
+            let (e1, e2) = (rot * Vec3A::new(s, 0.0, 0.0), rot * Vec3A::new(0.0, s, 0.0));
+            let tri = Triangle::new(c, c + e1, c + e2);
+            // The centroid; and 1e-3 of s beyond the hypotenuse, which f32 can only resolve when the
+            // triangle spans many ulps of its position (s/L >= 1e-2).
+            let mut targets = vec![c + (e1 + e2) / 3.0];
+            if s / l >= 1e-2 {
+                targets.push(c + (e1 + e2) * (0.5 + 1e-3));
+            }
+            for target in targets {
+                // Classified against the f64 reference on the same f32 ray.
+                let ray = Ray::new(Vec3A::ZERO, target.normalize());
+                let Some((t_ref, margin)) = reference_triangle_hit(&tri, &ray) else { continue };
+                if margin.abs() < 1e-9 {
+                    continue;
+                }
+                total += 1;
+                let hit = tri.intersect(&ray, Interval::POSITIVE);
+                if let Some(h) = hit {
+                    assert!(h.t.is_finite() && h.t > 0.0);
+                    let e = (h.t as f64 - t_ref).abs() / (U * t_ref);
+                    worst_t = worst_t.max(e);
+                }
+                if hit.is_some() != (margin > 0.0) {
+                    wrong += 1;
+                }
+            }
+        } else {
+            let len = 10f32.powf(4.0 * unif(&mut r));
+            let ratio = 10f32.powf(-6.0 + 5.0 * unif(&mut r));
+            let w = len * ratio;
+            let c = rot * Vec3A::new(0.0, 0.0, -3.0 * len);
+            let (a, b) = (rot * Vec3A::new(len, 0.0, 0.0), rot * Vec3A::new(len, w, 0.0));
+            let tri = Triangle::new(c, c + a, c + b);
+            let ray = Ray::new(Vec3A::ZERO, (c + (a + b) / 3.0).normalize());
+            let Some((_, margin)) = reference_triangle_hit(&tri, &ray) else { continue };
+            if margin < 1e-3 {
+                continue;
+            }
+            let decade = ((ratio.log10() + 6.0) as usize).min(4);
+            needles[decade] += 1;
+            match tri.intersect(&ray, Interval::POSITIVE) {
+                Some(h) => assert!(h.t.is_finite() && h.t > 0.0),
+                None => needle_misses[decade] += 1,
+            }
+        }
+    }
+    println!(
+        "T4: {total} rays at tiny right triangles (s/L >= 1e-5): {wrong} misclassified against f64, worst |dt| {worst_t:.1} u·t; \
+         needles through the centroid missed (conservative t check), by w/l decade 1e-6..1e-2: {needle_misses:?} of {needles:?}"
+    );
+    assert_eq!(wrong, 0);
+    assert!(worst_t <= 8.0);
+    assert_eq!(needle_misses[3] + needle_misses[4], 0, "needles of w/l >= 1e-3 are always hit");
+}
+
+/// T8: hit or miss does not depend on the order of the vertices, for rays aimed at points on and
+/// within 2 ulps of the edges.
+#[test]
+fn t8_vertex_order_invariance() {
+    let mut r = rng(141);
+    let (mut mismatches, mut worst_dt) = (0usize, 0u32);
+    for _ in 0..250_000 {
+        let scale = 10f32.powf(-3.0 + 6.0 * unif(&mut r));
+        let shift = unit_vector(&mut r) * 1e5 * unif(&mut r);
+        let v = [0, 1, 2].map(|_| shift + unit_vector(&mut r) * scale);
+        let (a, b) = (r.next_u32() as usize % 3, unif(&mut r));
+        let mut target = v[a].lerp(v[(a + 1) % 3], b);
+        let k = (r.next_u32() % 3) as usize;
+        for _ in 0..(r.next_u32() % 3) {
+            target[k] = if unif(&mut r) < 0.5 { target[k].next_up() } else { target[k].next_down() };
+        }
+        let o = target + unit_vector(&mut r) * (3.0 * scale);
+        let ray = Ray::new(o, (target - o).normalize());
+        let orders = [[0, 1, 2], [1, 2, 0], [2, 0, 1], [0, 2, 1]];
+        let hits: Vec<Option<f32>> = orders
+            .iter()
+            .map(|o| {
+                intersect_watertight(&Triangle::new(v[o[0]], v[o[1]], v[o[2]]), &ray, Interval::POSITIVE).map(|h| h.t)
+            })
+            .collect();
+        if hits.iter().any(|h| h.is_some() != hits[0].is_some()) {
+            mismatches += 1;
+        } else if let Some(t0) = hits[0] {
+            for t in hits.iter().flatten() {
+                worst_dt = worst_dt.max((t.to_bits() as i64 - t0.to_bits() as i64).unsigned_abs() as u32);
+            }
+        }
+    }
+    println!(
+        "T8: 250 000 near-edge rays, 4 vertex orders: {mismatches} hit/miss mismatches, worst |dt| {worst_dt} ulps"
+    );
+    assert_eq!(mismatches, 0);
+    assert!(worst_dt <= 2, "{worst_dt} ulps");
+}
+
+/// R5: the hit point's error bound holds: the exact surface passes through `point ± error`, and the
+/// bound is not absurdly large.
+#[test]
+fn r5_hit_point_error_bound_is_valid() {
+    let mut r = rng(151);
+    let (mut violations, mut too_large) = (0usize, 0usize);
+    for i in 0..1_000_000 {
+        let s = 10f32.powf(-3.0 + 6.0 * unif(&mut r));
+        let shift = unit_vector(&mut r) * 1e5 * unif(&mut r);
+        if i % 2 == 0 {
+            let tri = Triangle::new(shift, shift + unit_vector(&mut r) * s, shift + unit_vector(&mut r) * s);
+            let n = tri.normal();
+            if n.length() < 0.05 * s * s {
+                continue;
+            }
+            let (b1, b2) = (unif(&mut r) * 0.5, unif(&mut r) * 0.5);
+            let aim = tri.p[0] * (1.0 - b1 - b2) + tri.p[1] * b1 + tri.p[2] * b2;
+            let o = aim + unit_vector(&mut r) * (10.0 * s);
+            let Some(h) = tri.intersect(&Ray::new(o, (aim - o).normalize()), Interval::POSITIVE) else { continue };
+            // f64 distance from the point to the plane through the f32 vertices.
+            let n64 = normal64(&tri);
+            let p0 = tri.p[0].to_array().map(f64::from);
+            let dist: f64 = (0..3).map(|a| (h.point[a] as f64 - p0[a]) * n64[a]).sum::<f64>().abs();
+            let allowed: f64 = (0..3).map(|a| n64[a].abs() * h.error[a] as f64).sum();
+            if dist > allowed {
+                violations += 1;
+            }
+            let reach: f64 =
+                tri.p.iter().map(|v| v.abs().to_array().iter().map(|&x| x as f64).sum::<f64>()).sum::<f64>() + s as f64;
+            if h.error.max_element() as f64 > 12.0 * U * reach {
+                too_large += 1;
+            }
+        } else {
+            let sphere = Sphere { center: shift, radius: s };
+            let o = shift + unit_vector(&mut r) * (s * (1.5 + 10.0 * unif(&mut r)));
+            let aim = shift + unit_vector(&mut r) * (s * 0.5);
+            let Some(h) = sphere.intersect(&Ray::new(o, (aim - o).normalize()), Interval::POSITIVE) else { continue };
+            let pc = (0..3).map(|a| (h.point[a] as f64 - shift[a] as f64).powi(2)).sum::<f64>().sqrt();
+            let n = h.normal.to_array().map(f64::from);
+            let allowed: f64 = (0..3).map(|a| n[a].abs() * h.error[a] as f64).sum();
+            if (pc - s as f64).abs() > allowed {
+                violations += 1;
+            }
+        }
+    }
+    println!(
+        "R5: 1e6 triangle and sphere hits: {violations} points outside their error bound, {too_large} bounds over 12 u·reach"
+    );
+    assert_eq!(violations, 0);
+    assert_eq!(too_large, 0);
+}
+
+/// The unit normal of a triangle's f32 vertices, computed in f64.
+fn normal64(tri: &Triangle) -> [f64; 3] {
+    let p = tri.p.map(|v| v.to_array().map(f64::from));
+    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let c = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    [c[0] / l, c[1] / l, c[2] / l]
+}
+
+/// The f64 intersection of a ray with the plane of a triangle's f32 vertices: the distance, and the
+/// smallest barycentric (positive inside, negative outside).
+fn reference_triangle_hit(tri: &Triangle, ray: &Ray) -> Option<(f64, f64)> {
+    let p = tri.p.map(|v| v.to_array().map(f64::from));
+    let o = ray.origin.to_array().map(f64::from);
+    let d = ray.dir.to_array().map(f64::from);
+    let n = normal64(tri);
+    let den: f64 = (0..3).map(|a| n[a] * d[a]).sum();
+    if den == 0.0 {
+        return None;
+    }
+    let t = (0..3).map(|a| n[a] * (p[0][a] - o[a])).sum::<f64>() / den;
+    let x = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+    // Signed areas of the sub-triangles, projected on the normal.
+    let area = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let cr = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+        cr[0] * n[0] + cr[1] * n[1] + cr[2] * n[2]
+    };
+    let total = area(p[0], p[1], p[2]);
+    let b = [area(x, p[1], p[2]), area(p[0], x, p[2]), area(p[0], p[1], x)];
+    let margin = b.iter().fold(f64::INFINITY, |m, &v| m.min(v)) / total;
+    (t > 0.0).then_some((t, margin))
+}

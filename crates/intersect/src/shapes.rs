@@ -143,7 +143,9 @@ pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Opt
     }
     let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
     let inv = 1.0 / det;
-    let t = (u * az + v * bz + w * cz) * inv;
+    // t in f64 from the exact products: the same t whatever the order of the vertices.
+    let t = ((u as f64 * az as f64 + v as f64 * bz as f64 + w as f64 * cz as f64) / (u as f64 + v as f64 + w as f64))
+        as f32;
     if !t_range.contains(t) {
         return None;
     }
@@ -160,6 +162,10 @@ pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Opt
     if delta_t.is_nan() || t <= delta_t {
         return None;
     }
+    // The hit is decided; its distance is refined on the plane through the vertices, in f64, where
+    // the differences and cross products of f32 coordinates are (nearly) exact. This keeps t at a few
+    // ulps even for large triangles seen at grazing angles, where the sheared coordinates lose it.
+    let t = plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t);
     let (b0, b1, b2) = (u * inv, v * inv, w * inv);
     let normal = tri.normal().normalize_or_zero();
     if normal == Vec3A::ZERO || !normal.is_finite() {
@@ -344,4 +350,21 @@ fn travel_error(ray: &Ray, t: f32, n: i32) -> Vec3A {
 fn sq64(v: Vec3A) -> f64 {
     let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
     x * x + y * y + z * z
+}
+
+/// The ray parameter where the ray meets the plane of the triangle's vertices, computed in f64.
+#[inline]
+fn plane_distance64(tri: &Triangle, ray: &Ray) -> Option<f32> {
+    let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
+    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    let (o, d) = (
+        [ray.origin.x as f64, ray.origin.y as f64, ray.origin.z as f64],
+        [ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64],
+    );
+    let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    let num = n[0] * (p[0][0] - o[0]) + n[1] * (p[0][1] - o[1]) + n[2] * (p[0][2] - o[2]);
+    let t = (num / den) as f32;
+    (den != 0.0 && t.is_finite()).then_some(t)
 }
