@@ -1073,3 +1073,200 @@ fn reference_triangle_hit(tri: &Triangle, ray: &Ray) -> Option<(f64, f64)> {
     let margin = b.iter().fold(f64::INFINITY, |m, &v| m.min(v)) / total;
     (t > 0.0).then_some((t, margin))
 }
+
+/// X1: adversarial scenes (log-uniform sizes, clusters, duplicates, coincident and flat triangles,
+/// primitives on split planes and cell boundaries, infinite planes): BVH, midpoint BVH and grid
+/// return brute force's closest hit bit for bit, and the same occlusion answers.
+#[test]
+fn x1_accelerators_on_adversarial_scenes() {
+    let mut r = rng(161);
+    let mut mismatches = 0usize;
+    let mut rays_traced = 0usize;
+    for scene in 0..200 {
+        let n = 1 + (r.next_u32() % 400) as usize;
+        let mut prims = Vec::with_capacity(n + 2);
+        let cluster = unit_vector(&mut r) * 10.0;
+        for i in 0..n {
+            let size = 10f32.powf(-4.0 + 8.0 * unif(&mut r)).min(50.0);
+            // Centres on a coarse lattice (split planes and cell boundaries) half the time.
+            let c = if i % 2 == 0 { (unit_vector(&mut r) * 8.0).round() } else { cluster + unit_vector(&mut r) * size };
+            let p = match i % 5 {
+                0 => Primitive::Sphere(Sphere { center: c, radius: size }),
+                1 => Primitive::Triangle(Triangle::new(c, c + Vec3A::X * size, c + Vec3A::Y * size)),
+                2 => Primitive::Box(AaBox { bounds: raylume::geometry::Aabb::new(c, c + Vec3A::splat(size)) }),
+                3 => Primitive::Triangle(Triangle::new(
+                    c,
+                    c + unit_vector(&mut r) * size,
+                    c + unit_vector(&mut r) * size,
+                )),
+                _ => prims.last().copied().unwrap_or(Primitive::Sphere(Sphere { center: c, radius: size })),
+            };
+            prims.push(p);
+        }
+        for _ in 0..(scene % 3) {
+            prims.push(Primitive::Plane(Plane {
+                point: Vec3A::new(0.0, -20.0 - unif(&mut r), 0.0),
+                normal: unit_vector(&mut r),
+            }));
+        }
+        let shutter = Interval::new(0.0, 0.0);
+        let brute = BruteForce::new(prims.clone());
+        let bvh = Bvh::new(prims.clone(), shutter);
+        let mid = Bvh::with_build(prims.clone(), shutter, raylume::accel::BvhBuild::Midpoint);
+        let grid = Grid::new(prims, shutter, GridParams::default());
+        let bounds = bvh.bounds();
+        for k in 0..50 {
+            let o = match k % 4 {
+                0 => unit_vector(&mut r) * 40.0,
+                1 => (unit_vector(&mut r) * 8.0).round(),
+                2 => bounds.max,
+                _ => bounds.min + bounds.diagonal() * Vec3A::new(unif(&mut r), unif(&mut r), unif(&mut r)),
+            };
+            let mut d = if k % 3 == 0 { Vec3A::X } else { unit_vector(&mut r) };
+            if k % 6 == 1 {
+                d = Vec3A::new(0.0, -0.0, 1.0);
+            }
+            let ray = Ray::new(o, if k % 2 == 0 { -d } else { d });
+            rays_traced += 1;
+            let key = |h: Option<raylume::accel::PrimitiveHit>| h.map(|h| h.hit.t.to_bits());
+            let expected = key(brute.closest_hit(&ray, Interval::POSITIVE));
+            let occluded = brute.occluded(&ray, 30.0);
+            let got = [
+                (key(bvh.closest_hit(&ray, Interval::POSITIVE)), bvh.occluded(&ray, 30.0)),
+                (key(mid.closest_hit(&ray, Interval::POSITIVE)), mid.occluded(&ray, 30.0)),
+                (key(grid.closest_hit(&ray, Interval::POSITIVE)), grid.occluded(&ray, 30.0)),
+            ];
+            // Ties between primitives at the same t are allowed, so t is compared bit for bit.
+            mismatches += got.iter().filter(|g| **g != (expected, occluded)).count();
+        }
+    }
+    println!(
+        "X1: 200 adversarial scenes, {rays_traced} rays, 3 accelerators: {mismatches} answers differ from brute force"
+    );
+    assert_eq!(mismatches, 0);
+}
+
+/// Own case O3: moving spheres seen at the very start and end of the shutter are found by every
+/// accelerator (their bounds cover the whole motion).
+#[test]
+fn o3_moving_spheres_at_shutter_ends() {
+    let mut r = rng(171);
+    let prims: Vec<Primitive> = (0..300)
+        .map(|_| {
+            let c = unit_vector(&mut r) * 10.0;
+            Primitive::MovingSphere(raylume::geometry::MovingSphere {
+                center0: c,
+                center1: c + unit_vector(&mut r) * 5.0,
+                radius: 0.3,
+                time0: 0.0,
+                time1: 1.0,
+            })
+        })
+        .collect();
+    let shutter = Interval::new(0.0, 1.0);
+    let brute = BruteForce::new(prims.clone());
+    let bvh = Bvh::new(prims.clone(), shutter);
+    let grid = Grid::new(prims.clone(), shutter, GridParams::default());
+    let mut found = 0;
+    for (i, p) in prims.iter().enumerate() {
+        let Primitive::MovingSphere(m) = p else { unreachable!() };
+        for time in [0.0f32, 1.0, 0.5] {
+            let c = m.center_at(time);
+            let o = c + unit_vector(&mut r) * 30.0;
+            let ray = Ray::with_time(o, (c - o).normalize(), time);
+            let e = brute.closest_hit(&ray, Interval::POSITIVE).map(|h| h.hit.t.to_bits());
+            assert_eq!(bvh.closest_hit(&ray, Interval::POSITIVE).map(|h| h.hit.t.to_bits()), e, "sphere {i} at {time}");
+            assert_eq!(
+                grid.closest_hit(&ray, Interval::POSITIVE).map(|h| h.hit.t.to_bits()),
+                e,
+                "sphere {i} at {time}"
+            );
+            found += e.is_some() as usize;
+        }
+    }
+    println!("O3: 900 rays at moving spheres at t = 0, 0.5 and 1: BVH and grid agree with brute force ({found} hits)");
+    assert_eq!(found, 900);
+}
+
+/// Own case O4: a scene far from the origin (offset 1e6) renders like the same scene at the origin,
+/// up to the f32 resolution there: no acne, no holes.
+#[test]
+fn o4_scene_far_from_the_origin() {
+    let render = |shift: Vec3A| {
+        let scene = SceneBuilder::new()
+            .camera(shift + Vec3A::new(0.0, 1.5, 5.0), shift + Vec3A::new(0.0, 0.5, 0.0), Vec3A::Y, 40.0, 64, 48)
+            .background(Vec3::new(0.2, 0.3, 0.5))
+            .light(shift + Vec3A::new(3.0, 5.0, 4.0), Vec3::ONE)
+            .material(Phong { diffuse: Vec3::splat(0.8), kd: 0.9, ..Phong::default() })
+            .plane([shift, shift + Vec3A::new(0.0, 0.0, -1.0), shift + Vec3A::new(-1.0, 0.0, 0.0)])
+            .sphere(shift + Vec3A::new(0.0, 1.0, 0.0), 1.0)
+            .build()
+            .unwrap();
+        scene.render(&RenderOptions::default(), &|| {}).unwrap().film
+    };
+    let reference = render(Vec3A::ZERO);
+    let mut report = Vec::new();
+    for shift in [1e3f32, 1e4, 1e5] {
+        let film = render(Vec3A::new(shift, 0.0, shift));
+        // Away from edges (where f32 quantisation at the offset may move a silhouette or a shadow by a
+        // fraction of a pixel), no lit pixel may darken.
+        let flat = |x: u32, y: u32| {
+            let c = reference.pixel(x, y);
+            [(0i32, 1i32), (1, 0), (0, -1), (-1, 0)].iter().all(|&(dx, dy)| {
+                let (nx, ny) = ((x as i32 + dx).clamp(0, 63) as u32, (y as i32 + dy).clamp(0, 47) as u32);
+                (reference.pixel(nx, ny) - c).abs().max_element() < 0.1
+            })
+        };
+        let black = (0..48u32)
+            .flat_map(|y| (0..64u32).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let (got, want) = (film.pixel(x, y).max_element(), reference.pixel(x, y).max_element());
+                // Lit pixels only: at the terminator N.L is near zero and tiny values vary relatively.
+                flat(x, y) && want > 0.05 && got < 0.5 * want
+            })
+            .count();
+        report.push(format!("offset {shift:e}: {black} darkened pixels"));
+        assert_eq!(black, 0, "offset {shift}");
+    }
+    println!("O4: {} (acne would darken lit pixels)", report.join(", "));
+}
+
+/// Own case O5: rays leaving spheres and boxes (R1 covers triangles) at scales 1e-4 to 1e6, offset
+/// by their hit's error bound, never hit the surface they left.
+#[test]
+fn o5_spheres_and_boxes_never_rehit_themselves() {
+    let mut r = rng(181);
+    let mut report = Vec::new();
+    for scale in [1e-4f32, 1.0, 1e3, 1e6] {
+        let (mut rehits, mut spawned) = (0usize, 0usize);
+        for i in 0..200 {
+            let centre = unit_vector(&mut r) * scale * 3.0;
+            let prim = if i % 2 == 0 {
+                Primitive::Sphere(Sphere { center: centre, radius: scale })
+            } else {
+                Primitive::Box(AaBox {
+                    bounds: raylume::geometry::Aabb::new(centre - Vec3A::splat(scale), centre + Vec3A::splat(scale)),
+                })
+            };
+            let o = centre + unit_vector(&mut r) * (scale * 10.0);
+            let aim = centre + unit_vector(&mut r) * (scale * 0.5);
+            let Some(hit) = prim.intersect(&Ray::new(o, (aim - o).normalize()), Interval::POSITIVE) else { continue };
+            let n = if hit.normal.dot(o - hit.point) > 0.0 { hit.normal } else { -hit.normal };
+            let origin = offset_ray_origin(hit.point, hit.error, n);
+            for _ in 0..1000 {
+                let mut d = unit_vector(&mut r);
+                if d.dot(n) < 0.0 {
+                    d = -d;
+                }
+                spawned += 1;
+                // Leaving a convex solid outwards: nothing of it can be hit.
+                if prim.intersect(&Ray::new(origin, d), Interval::POSITIVE).is_some() {
+                    rehits += 1;
+                }
+            }
+        }
+        report.push(format!("scale {scale:e}: {rehits}/{spawned}"));
+        assert_eq!(rehits, 0, "scale {scale}");
+    }
+    println!("O5: re-hits of spheres and boxes {}", report.join(", "));
+}

@@ -266,8 +266,9 @@ impl Intersect for AaBox {
         normal[face] = if outward { 1.0 } else { -1.0 };
         let mut point = ray.at(t);
         point[face] = if outward { self.bounds.max[face] } else { self.bounds.min[face] };
+        // The face coordinate is exact; a one-ulp bound still makes spawned rays start off the face.
         let mut error = travel_error(ray, t, 3);
-        error[face] = 0.0;
+        error[face] = (point[face].abs() * gamma(1)).max(f32::MIN_POSITIVE);
         Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
     }
 
