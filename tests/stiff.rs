@@ -323,7 +323,7 @@ fn s1_small_sphere_far_away() {
                 }
             }
         }
-        report.push(format!("D={dist}: {wrong} wrong, worst |dt| {worst_t:.1} u·t"));
+        report.push(format!("D={dist}: {wrong} wrong, worst dt error {worst_t:.1} u·t"));
         assert_eq!(wrong, 0, "D={dist}");
         assert!(worst_t <= 16.0, "D={dist}: {worst_t}");
     }
@@ -683,7 +683,7 @@ fn s2_large_sphere_origin_near_surface() {
             }
         }
     }
-    println!("S2: {checked} rays: worst |t - t_ref| = {worst:.2} u·(|o-c|+r)");
+    println!("S2: {checked} rays: worst t error {worst:.2} u·(|o-c|+r)");
     assert!(worst <= 8.0);
 }
 
@@ -938,7 +938,7 @@ fn t4_tiny_and_needle_triangles() {
         }
     }
     println!(
-        "T4: {total} rays at tiny right triangles (s/L >= 1e-5): {wrong} misclassified against f64, worst |dt| {worst_t:.1} u·t; \
+        "T4: {total} rays at tiny right triangles (s/L >= 1e-5): {wrong} misclassified against f64, worst dt error {worst_t:.1} u·t; \
          needles through the centroid missed (conservative t check), by w/l decade 1e-6..1e-2: {needle_misses:?} of {needles:?}"
     );
     assert_eq!(wrong, 0);
@@ -980,7 +980,7 @@ fn t8_vertex_order_invariance() {
         }
     }
     println!(
-        "T8: 250 000 near-edge rays, 4 vertex orders: {mismatches} hit/miss mismatches, worst |dt| {worst_dt} ulps"
+        "T8: 250 000 near-edge rays, 4 vertex orders: {mismatches} hit/miss mismatches, worst dt error {worst_dt} ulps"
     );
     assert_eq!(mismatches, 0);
     assert!(worst_dt <= 2, "{worst_dt} ulps");
