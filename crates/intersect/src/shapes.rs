@@ -214,11 +214,14 @@ impl Intersect for Plane {
     /// A ray parallel to the plane (or lying in it) never hits.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        let denom = self.normal.dot(ray.dir);
+        // In f64: near-parallel rays make n.d cancel, and f32 would lose t there.
+        let (n, d) = (self.normal.to_array().map(f64::from), ray.dir.to_array().map(f64::from));
+        let denom = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
         if denom == 0.0 {
             return None;
         }
-        let t = self.normal.dot(self.point - ray.origin) / denom;
+        let offset = [0, 1, 2].map(|k| self.point[k] as f64 - ray.origin[k] as f64);
+        let t = ((n[0] * offset[0] + n[1] * offset[1] + n[2] * offset[2]) / denom) as f32;
         if !t_range.contains(t) {
             return None;
         }

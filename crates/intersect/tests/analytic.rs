@@ -181,3 +181,151 @@ proptest! {
         prop_assert!(bx.intersect(&Ray::new(centre, d), Interval::POSITIVE).is_some());
     }
 }
+
+/// The f64 unit normal of a triangle's f32 vertices.
+fn normal64(t: &Triangle) -> [f64; 3] {
+    let p = t.p.map(|v| v.to_array().map(f64::from));
+    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let c = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    [c[0] / l, c[1] / l, c[2] / l]
+}
+
+const U: f64 = 1.0 / (1u64 << 24) as f64;
+
+fn log_uniform(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+    (lo..hi).prop_map(|e| 10f32.powf(e))
+}
+
+proptest! {
+    /// Watertight triangles, at scales 1e-3..1e4 and offsets up to 1e5: a ray aimed inside hits at the
+    /// f64 plane distance within 4 u t, the point lies on the plane within its error bound, and
+    /// nothing is NaN.
+    #[test]
+    fn watertight_hits_match_f64(a in finite_vec(1.0), b in finite_vec(1.0), c in finite_vec(1.0), scale in log_uniform(-3.0, 4.0),
+                                 shift in finite_vec(1e5), u in 0.05f32..0.9, w in 0.05f32..0.9, o in finite_vec(1.0)) {
+        let (u, w) = if u + w > 0.95 { (u * 0.5, w * 0.5) } else { (u, w) };
+        let tri = Triangle::new(shift + a * scale, shift + b * scale, shift + c * scale);
+        prop_assume!(tri.normal().length() > 1e-2 * scale * scale);
+        let target = tri.p[0] * (1.0 - u - w) + tri.p[1] * u + tri.p[2] * w;
+        let origin = target + o.normalize_or(Vec3A::Z) * (3.0 * scale);
+        let ray = Ray::new(origin, (target - origin).normalize());
+        let n = normal64(&tri);
+        let d = ray.dir.to_array().map(f64::from);
+        let cos: f64 = (0..3).map(|k| n[k] * d[k]).sum();
+        prop_assume!(cos.abs() > 0.05);
+        let p0 = tri.p[0].to_array().map(f64::from);
+        let o64 = ray.origin.to_array().map(f64::from);
+        let t_ref = (0..3).map(|k| n[k] * (p0[k] - o64[k])).sum::<f64>() / cos;
+        // Whether the f32 ray (its origin and direction rounded) passes inside, by f64 barycentrics.
+        let x = [o64[0] + t_ref * d[0], o64[1] + t_ref * d[1], o64[2] + t_ref * d[2]];
+        let p = tri.p.map(|v| v.to_array().map(f64::from));
+        let area = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
+            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            (e1[1] * e2[2] - e1[2] * e2[1]) * n[0] + (e1[2] * e2[0] - e1[0] * e2[2]) * n[1] + (e1[0] * e2[1] - e1[1] * e2[0]) * n[2]
+        };
+        let total = area(p[0], p[1], p[2]);
+        let margin = [area(x, p[1], p[2]), area(p[0], x, p[2]), area(p[0], p[1], x)].iter().fold(f64::INFINITY, |m, &v| m.min(v)) / total;
+        let hit = tri.intersect(&ray, Interval::POSITIVE);
+        // Rays within 1e-5 of an edge (relative to the triangle) may go either way.
+        if margin < -1e-5 {
+            prop_assert!(hit.is_none(), "the f32 ray passes outside by {margin:e}");
+        }
+        prop_assume!(margin > 1e-5);
+        prop_assert!(hit.is_some(), "the f32 ray passes inside by {margin:e}");
+        let h = hit.unwrap();
+        prop_assert!(h.t.is_finite() && h.point.is_finite() && h.normal.is_finite() && h.error.is_finite());
+        prop_assert!((h.t as f64 - t_ref).abs() <= 4.0 * U * t_ref, "t {} vs {}", h.t, t_ref);
+        let dist: f64 = (0..3).map(|k| (h.point[k] as f64 - p0[k]) * n[k]).sum::<f64>().abs();
+        let allowed: f64 = (0..3).map(|k| n[k].abs() * h.error[k] as f64).sum();
+        prop_assert!(dist <= allowed, "point {dist:e} off the plane, bound {allowed:e}");
+    }
+
+    /// Two triangles sharing an edge: a ray through any f32 point of the edge hits at least one.
+    #[test]
+    fn watertight_never_leaks_on_a_shared_edge(a in finite_vec(10.0), b in finite_vec(10.0), c in finite_vec(10.0), e in finite_vec(10.0),
+                                               s in 0.0f32..1.0, o in finite_vec(20.0)) {
+        let (t1, t2) = (Triangle::new(a, b, c), Triangle::new(b, a, e));
+        prop_assume!(t1.normal().length() > 1e-3 && t2.normal().length() > 1e-3);
+        let target = a.lerp(b, s);
+        prop_assume!((target - o).length() > 1e-2);
+        let ray = Ray::new(o, (target - o).normalize());
+        // Only rays that pass between the two faces (not grazing the shared edge's plane pair).
+        let h1 = raylume_intersect::intersect_watertight(&t1, &ray, Interval::POSITIVE);
+        let h2 = raylume_intersect::intersect_watertight(&t2, &ray, Interval::POSITIVE);
+        let (n1, n2) = (t1.normal().normalize(), t2.normal().normalize());
+        let crossing = n1.dot(ray.dir).signum() == n2.dot(ray.dir).signum() && n1.dot(ray.dir).abs() > 1e-3 && n2.dot(ray.dir).abs() > 1e-3;
+        // Rays that start behind the edge relative to the surface see it at t <= 0.
+        let ahead = (target - o).dot(ray.dir) > 1e-3;
+        if crossing && ahead && (n1.dot(n2) > -0.9) {
+            prop_assert!(h1.is_some() || h2.is_some(), "leak through the shared edge");
+        }
+    }
+
+    /// Sphere hits lie on the sphere within their error bound, at any scale and offset.
+    #[test]
+    fn sphere_points_within_error_bound(c in finite_vec(1e5), r in log_uniform(-3.0, 5.0), o in finite_vec(1.0), aim in finite_vec(1.0)) {
+        let sphere = Sphere { center: c, radius: r };
+        let origin = c + o.normalize_or(Vec3A::X) * (r * 3.0);
+        let target = c + aim * (r * 0.5);
+        let ray = Ray::new(origin, (target - origin).normalize_or(Vec3A::X));
+        if let Some(h) = sphere.intersect(&ray, Interval::POSITIVE) {
+            prop_assert!(h.t.is_finite() && h.t >= 0.0 && h.error.is_finite());
+            let pc: f64 = (0..3).map(|k| (h.point[k] as f64 - c[k] as f64).powi(2)).sum::<f64>().sqrt();
+            let allowed: f64 = (0..3).map(|k| (h.normal[k] as f64).abs() * h.error[k] as f64).sum();
+            prop_assert!((pc - r as f64).abs() <= allowed + 1e-12, "{:e} off, bound {:e}", pc - r as f64, allowed);
+        }
+    }
+
+    /// Planes: any hit has a finite t matching f64 within 4 u t, for every kind of direction.
+    #[test]
+    fn plane_hits_match_f64(n in finite_vec(1.0), p in finite_vec(1e3), o in finite_vec(1e3), d in finite_vec(1.0), zero in 0usize..4) {
+        let Some(normal) = n.try_normalize() else { return Ok(()) };
+        let plane = Plane { point: p, normal };
+        let mut d = d;
+        if zero < 3 {
+            d[zero] = if zero == 1 { -0.0 } else { 0.0 };
+        }
+        let ray = Ray::new(o, d);
+        if let Some(h) = plane.intersect(&ray, Interval::POSITIVE) {
+            prop_assert!(h.t.is_finite() && h.point.is_finite());
+            let (n64, d64) = (normal.to_array().map(f64::from), d.to_array().map(f64::from));
+            let den: f64 = (0..3).map(|k| n64[k] * d64[k]).sum();
+            let num: f64 = (0..3).map(|k| n64[k] * (p[k] as f64 - o[k] as f64)).sum();
+            let t_ref = num / den;
+            prop_assert!((h.t as f64 - t_ref).abs() <= 4.0 * U * t_ref.abs(), "t {} vs {}", h.t, t_ref);
+        }
+    }
+
+    /// Cones and cylinders: no NaN, and hits lie on the lateral surface between the caps.
+    #[test]
+    fn cone_hits_lie_on_the_surface(base in finite_vec(5.0), axis in finite_vec(3.0), r0 in 0.0f32..2.0, r1 in 0.0f32..2.0,
+                                    o in finite_vec(10.0), d in finite_vec(1.0)) {
+        prop_assume!(axis.length() > 0.1 && r0 + r1 > 0.05);
+        let cone = Cone { base, base_radius: r0, apex: base + axis, apex_radius: r1 };
+        let Some(dir) = d.try_normalize() else { return Ok(()) };
+        if let Some(h) = cone.intersect(&Ray::new(o, dir), Interval::POSITIVE) {
+            prop_assert!(h.t.is_finite() && h.point.is_finite() && h.normal.is_finite());
+            let w = axis.normalize();
+            let along = (h.point - base).dot(w);
+            prop_assert!(along >= -1e-3 && along <= axis.length() + 1e-3);
+            let radial = ((h.point - base) - w * along).length();
+            let expected = r0 + (r1 - r0) * along / axis.length();
+            prop_assert!((radial - expected).abs() <= 1e-3 * (1.0 + o.length()), "radius {radial} vs {expected}");
+        }
+    }
+
+    /// A moving sphere at the ray's time is the sphere at that time.
+    #[test]
+    fn moving_sphere_is_the_sphere_at_the_ray_time(c0 in finite_vec(10.0), c1 in finite_vec(10.0), time in 0.0f32..1.0,
+                                                   o in finite_vec(30.0), d in finite_vec(1.0)) {
+        let m = MovingSphere { center0: c0, center1: c1, radius: 1.0, time0: 0.0, time1: 1.0 };
+        let Some(dir) = d.try_normalize() else { return Ok(()) };
+        let ray = Ray::with_time(o, dir, time);
+        prop_assert_eq!(m.intersect(&ray, Interval::POSITIVE), m.at(time).intersect(&ray, Interval::POSITIVE));
+        let b = m.bounds_over(Interval::new(0.0, 1.0));
+        prop_assert!(b.contains(m.center_at(time)));
+    }
+}
