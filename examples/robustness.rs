@@ -25,6 +25,7 @@ fn unit_vector(r: &mut Pcg32) -> Vec3A {
 }
 
 /// Möller–Trumbore as it is usually written: an absolute determinant epsilon, no NaN guards.
+#[allow(clippy::manual_range_contains)]
 fn naive_triangle(t: &Triangle, ray: &Ray) -> Option<f32> {
     let (e1, e2) = (t.p[1] - t.p[0], t.p[2] - t.p[0]);
     let p = ray.dir.cross(e2);
@@ -81,7 +82,8 @@ fn naive_slab(b: &Aabb, ray: &Ray) -> bool {
     t0 <= t1
 }
 
-/// A plane test whose range check lets NaN and infinity through.
+/// A plane test whose range check lets NaN and infinity through (as written on purpose).
+#[allow(clippy::manual_range_contains)]
 fn naive_plane(p: &Plane, ray: &Ray) -> Option<f32> {
     let t = p.normal.dot(p.point - ray.origin) / p.normal.dot(ray.dir);
     if t < 0.0 || t > f32::INFINITY { None } else { Some(t) }
