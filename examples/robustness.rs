@@ -12,6 +12,7 @@ use rand_pcg::Pcg32;
 use raylume::geometry::{Aabb, Plane, Sphere, Triangle, offset_ray_origin};
 use raylume::intersect::intersect_watertight;
 use raylume::prelude::*;
+use raylume::scene::procedural::icosphere;
 
 fn unif(r: &mut Pcg32) -> f32 {
     (r.next_u32() >> 8) as f32 / (1u32 << 24) as f32
@@ -103,12 +104,14 @@ fn main() {
     // T1: rays from inside a closed icosphere at its vertices and edges.
     {
         let (v, f) = icosphere(3);
-        let tris: Vec<Triangle> = f.iter().map(|t| Triangle::new(v[t[0]], v[t[1]], v[t[2]])).collect();
+        let tris: Vec<Triangle> =
+            f.iter().map(|t| Triangle::new(v[t[0] as usize], v[t[1] as usize], v[t[2] as usize])).collect();
         let (mut naive, mut ours, n) = (0, 0, 20_000);
         for i in 0..n {
             let o = unit_vector(&mut r) * 0.5 * unif(&mut r).cbrt();
             let t = &f[(r.next_u32() as usize) % f.len()];
-            let target = if i % 2 == 0 { v[t[0]] } else { v[t[0]].lerp(v[t[1]], unif(&mut r)) };
+            let target =
+                if i % 2 == 0 { v[t[0] as usize] } else { v[t[0] as usize].lerp(v[t[1] as usize], unif(&mut r)) };
             let ray = Ray::new(o, (target - o).normalize());
             naive += !tris.iter().any(|t| naive_triangle(t, &ray).is_some()) as usize;
             ours += !tris.iter().any(|t| intersect_watertight(t, &ray, Interval::POSITIVE).is_some()) as usize;
@@ -309,64 +312,4 @@ fn main() {
     for row in rows {
         println!("| {} | {} | {} | {} |", row.case, row.setup, row.naive, row.raylume);
     }
-}
-
-/// A closed icosphere: shared vertices computed once, faces as indices.
-fn icosphere(level: u32) -> (Vec<Vec3A>, Vec<[usize; 3]>) {
-    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3A> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3A::new(x, y, z).normalize())
-    .collect();
-    let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::with_capacity(f.len() * 4);
-        for [a, b, c] in f {
-            let mut m = |i: usize, j: usize| {
-                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    v.push(((v[i] + v[j]) * 0.5).normalize());
-                    v.len() - 1
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v, f)
 }

@@ -4,14 +4,13 @@
 //! Implemented so far: T1, T6, T7, R1, S1, S3, PL1, B1, G3, X2. The rest of the catalogue (T4, T8,
 //! R4, R5, S2, S4, B2, B3, B4, X1) and raylume's own cases are still to come.
 
-use std::collections::HashMap;
-
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use raylume::accel::{Grid, GridParams};
 use raylume::geometry::{AaBox, Plane, Sphere, Triangle, offset_ray_origin, spawn_ray_to};
 use raylume::intersect::{intersect_moller_trumbore, intersect_watertight};
 use raylume::prelude::*;
+use raylume::scene::procedural::icosphere;
 
 const U: f64 = 1.0 / (1u64 << 24) as f64;
 
@@ -28,66 +27,6 @@ fn unit_vector(r: &mut Pcg32) -> Vec3A {
     let phi = std::f32::consts::TAU * unif(r);
     let s = (1.0 - z * z).max(0.0).sqrt();
     Vec3A::new(s * phi.cos(), s * phi.sin(), z)
-}
-
-/// An icosphere of the given level: vertices computed once in f32 and shared, so the mesh is closed.
-fn icosphere(level: u32) -> (Vec<Vec3A>, Vec<[u32; 3]>) {
-    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3A> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3A::new(x, y, z).normalize())
-    .collect();
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut next = Vec::with_capacity(f.len() * 4);
-        for [a, b, c] in f {
-            let mut m = |i: u32, j: u32| {
-                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    v.push(((v[i as usize] + v[j as usize]) * 0.5).normalize());
-                    (v.len() - 1) as u32
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v, f)
 }
 
 /// T1: rays from inside a closed icosphere at random directions, vertices, edge points and edge

@@ -323,3 +323,70 @@ pub fn mesh_view(mesh: Shape, width: u32, height: u32) -> Scene {
         shutter: None,
     }
 }
+
+/// A closed icosphere of unit radius: the icosahedron's faces split `level` times, every new vertex
+/// pushed onto the sphere. Vertices are shared (each computed once, in f32), so the mesh is closed:
+/// `10·4^level + 2` vertices and `20·4^level` triangles. The standard mesh for watertightness tests.
+///
+/// ```
+/// let (v, f) = raylume_scene::procedural::icosphere(3);
+/// assert_eq!((v.len(), f.len()), (642, 1280));
+/// ```
+pub fn icosphere(level: u32) -> (Vec<Vec3A>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3A> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3A::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::with_capacity(f.len() * 4);
+        for [a, b, c] in f {
+            let mut m = |i: u32, j: u32| {
+                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
+                    v.push(((v[i as usize] + v[j as usize]) * 0.5).normalize());
+                    (v.len() - 1) as u32
+                })
+            };
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v, f)
+}
