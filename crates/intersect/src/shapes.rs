@@ -160,7 +160,10 @@ pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Opt
     let max_e = u.abs().max(v.abs()).max(w.abs());
     let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs();
     if delta_t.is_nan() || t <= delta_t {
-        return None;
+        // Too close to call in f32: needles and tiny triangles far away have error bounds larger than
+        // their distance. Decide again in f64, whose bound is 2^29 times smaller; a ray leaving the
+        // surface (its origin offset past the f32 error box) is then behind it, exactly.
+        return watertight_f64(tri, ray, t_range);
     }
     // The hit is decided; its distance is refined on the plane through the vertices, in f64, where
     // the differences and cross products of f32 coordinates are (nearly) exact. This keeps t at a few
@@ -371,4 +374,69 @@ fn plane_distance64(tri: &Triangle, ray: &Ray) -> Option<f32> {
     let num = n[0] * (p[0][0] - o[0]) + n[1] * (p[0][1] - o[1]) + n[2] * (p[0][2] - o[2]);
     let t = (num / den) as f32;
     (den != 0.0 && t.is_finite()).then_some(t)
+}
+
+/// The watertight test carried out entirely in f64 (exact differences and products of f32 inputs),
+/// with pbrt-v4's t bound for f64 roundings: the fallback for hits too close to call in f32.
+#[cold]
+fn watertight_f64(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
+    let g = |n: f64| n * (f64::EPSILON * 0.5) / (1.0 - n * (f64::EPSILON * 0.5));
+    let d = ray.dir.to_array().map(f64::from);
+    let o = ray.origin.to_array().map(f64::from);
+    let ad = d.map(f64::abs);
+    let kz = if ad[0] > ad[1] {
+        if ad[0] > ad[2] { 0 } else { 2 }
+    } else if ad[1] > ad[2] {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    if d[kz] == 0.0 {
+        return None;
+    }
+    let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    let rel = |v: Vec3A| {
+        let p = v.to_array().map(f64::from);
+        let q = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
+        (q[kx] - sx * q[kz], q[ky] - sy * q[kz], sz * q[kz])
+    };
+    let (ax, ay, az) = rel(tri.p[0]);
+    let (bx, by, bz) = rel(tri.p[1]);
+    let (cx, cy, cz) = rel(tri.p[2]);
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let t = (u * az + v * bz + w * cz) / det;
+    let (max_zt, max_xt, max_yt) = (
+        az.abs().max(bz.abs()).max(cz.abs()),
+        ax.abs().max(bx.abs()).max(cx.abs()),
+        ay.abs().max(by.abs()).max(cy.abs()),
+    );
+    let (delta_z, delta_x, delta_y) = (g(3.0) * max_zt, g(5.0) * (max_xt + max_zt), g(5.0) * (max_yt + max_zt));
+    let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = u.abs().max(v.abs()).max(w.abs());
+    let delta_t = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
+    if t.is_nan() || t <= delta_t || !t_range.contains(t as f32) || (t as f32) <= 0.0 {
+        return None;
+    }
+    let (b0, b1, b2) = ((u / det) as f32, (v / det) as f32, (w / det) as f32);
+    let normal = tri.normal().normalize_or_zero();
+    if normal == Vec3A::ZERO || !normal.is_finite() {
+        return None;
+    }
+    let point = tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2;
+    let error = ((tri.p[0] * b0).abs() + (tri.p[1] * b1).abs() + (tri.p[2] * b2).abs()) * gamma(7);
+    Some(Hit { t: t as f32, point, normal, uv: Vec2::new(b1, b2), error })
 }
