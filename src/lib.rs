@@ -22,6 +22,7 @@ pub use raylume_accel as accel;
 pub use raylume_camera as camera;
 pub use raylume_geometry as geometry;
 pub use raylume_integrator as integrator;
+pub use raylume_integrator::metrics;
 pub use raylume_intersect as intersect;
 pub use raylume_material as material;
 pub use raylume_scene as scene;

@@ -11,9 +11,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raylume_accel::AccelKind;
 use raylume_integrator::RenderSettings;
 use raylume_material::FresnelMode;
-use raylume_scene::{DEFAULT_SCENE, RenderOptions, Scene, p3f, procedural};
+use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, Scene, p3f, procedural};
 
 mod bench;
+mod converge;
 
 #[derive(Parser)]
 #[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
@@ -35,6 +36,9 @@ enum Command {
     },
     /// Measure an accelerator: build time, closest-hit and occlusion Mrays/s, size, primitives tested.
     Bench(BenchCli),
+    /// Error against run time: render a reference, then each sample count with each sampler, and
+    /// write report/convergence.csv with the metrics and the time taken.
+    Converge(converge::ConvergeArgs),
     /// Print the RMSE between two images of the same size (8-bit channels as values in [0, 1]).
     Compare {
         /// The first image.
@@ -109,6 +113,9 @@ struct RenderArgs {
     /// Density of the uniform grid: about K cells per primitive.
     #[arg(long, default_value_t = 2.0, value_name = "K")]
     grid_k: f32,
+    /// The sampler of antialiased renders.
+    #[arg(long, value_enum, default_value = "jittered")]
+    sampler: SamplerArg,
     /// Motion blur: the shutter interval.
     #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
     shutter: Option<Vec<f32>>,
@@ -159,6 +166,21 @@ struct BenchCli {
     repeat: usize,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SamplerArg {
+    Jittered,
+    Independent,
+}
+
+impl From<SamplerArg> for SamplerKind {
+    fn from(s: SamplerArg) -> Self {
+        match s {
+            SamplerArg::Jittered => SamplerKind::Jittered,
+            SamplerArg::Independent => SamplerKind::Independent,
+        }
+    }
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum AccelArg {
     None,
@@ -184,6 +206,7 @@ fn main() -> ExitCode {
         Command::Compare { a, b } => compare(&a, &b),
         Command::Gen { name, size } => generate(&name, size),
         Command::Bench(args) => bench_command(args),
+        Command::Converge(args) => converge::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -255,6 +278,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         focal: args.focal,
         shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
         grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
+        sampler: args.sampler.into(),
     };
     if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= 1000.0) {
         return Err(bad_input(format!("--grid-k {}: expected a number in (0, 1000]", args.grid_k)));

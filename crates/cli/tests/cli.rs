@@ -232,3 +232,50 @@ fn gen_writes_a_loadable_scene_and_bench_reports() {
     let run = raylume().args(["gen", "teapot", "2"]).output().unwrap();
     assert_eq!(run.status.code(), Some(2));
 }
+
+#[test]
+fn converge_writes_a_well_formed_csv() {
+    let dir = temp_dir("converge");
+    let report = dir.join("report");
+    let run = raylume()
+        .args(["converge", "--width", "24", "--height", "16", "--reference-spp", "64", "--spp-list", "1,4,16", "-o"])
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let csv = std::fs::read_to_string(report.join("convergence.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "sampler,spp,seconds,rmse,rel_mse,psnr,mae");
+    assert_eq!(lines.len(), 1 + 2 * 3, "two samplers, three sample counts");
+    for line in &lines[1..] {
+        let fields: Vec<&str> = line.split(',').collect();
+        assert_eq!(fields.len(), 7);
+        assert!(fields[0] == "independent" || fields[0] == "jittered");
+        for f in &fields[1..] {
+            let v: f64 = f.parse().unwrap();
+            assert!(v.is_finite() && v >= 0.0, "{line}");
+        }
+    }
+    assert!(String::from_utf8_lossy(&run.stdout).contains("slope of log RMSE against log seconds"));
+    assert!(report.join("reference.pfm").is_file());
+    // The reference can be read back.
+    let again = raylume()
+        .args([
+            "converge",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--spp-list",
+            "1",
+            "--sampler",
+            "jittered",
+            "--reference",
+        ])
+        .arg(report.join("reference.pfm"))
+        .arg("-o")
+        .arg(dir.join("again"))
+        .output()
+        .unwrap();
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+}

@@ -70,6 +70,11 @@ impl Film {
         &self.pixels
     }
 
+    /// The pixels' channels, `r g b` per pixel, top row first (for the [`metrics`](crate::metrics)).
+    pub fn channels(&self) -> Vec<f32> {
+        self.pixels.iter().flat_map(|c| c.to_array()).collect()
+    }
+
     /// The pixel in column `x` and row `y` (row 0 at the top).
     pub fn pixel(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]

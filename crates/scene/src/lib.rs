@@ -33,7 +33,7 @@ pub use builder::SceneBuilder;
 pub use env::load_cubemap;
 pub use error::{SceneError, Warning};
 pub use model::{Light, Object, Scene, Shape};
-pub use render::{Features, Primitives, RenderOptions, RenderOutput};
+pub use render::{Features, Primitives, Progress, RenderOptions, RenderOutput, SamplerKind};
 
 /// The embedded default scene (p3f text), rendered when the CLI is given no scene.
 pub const DEFAULT_SCENE: &str = include_str!("default.p3f");

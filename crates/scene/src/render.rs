@@ -1,3 +1,4 @@
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -5,8 +6,8 @@ use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Grid, Gri
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Centre, Film, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading, SoftShadows,
-    Whitted, World, render,
+    Background, Centre, Film, Independent, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading,
+    SoftShadows, Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
@@ -40,6 +41,18 @@ pub struct RenderOptions {
     pub shutter: Option<(f32, f32)>,
     /// How the uniform grid is sized, when it is the accelerator.
     pub grid: GridParams,
+    /// The sampler of antialiased renders.
+    pub sampler: SamplerKind,
+}
+
+/// Which sampler draws the samples of antialiased renders.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SamplerKind {
+    /// The course's jittered (stratified) sampler.
+    #[default]
+    Jittered,
+    /// Independent uniform random samples.
+    Independent,
 }
 
 impl Default for RenderOptions {
@@ -57,6 +70,7 @@ impl Default for RenderOptions {
             focal: None,
             shutter: None,
             grid: GridParams::default(),
+            sampler: SamplerKind::default(),
         }
     }
 }
@@ -294,8 +308,48 @@ impl Scene {
     /// monomorphised render loops (camera, sampler and soft-shadow mode are type parameters), so
     /// the work of an unused effect is absent from the loop rather than skipped per ray.
     pub fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError> {
+        self.render_passes(options, on_row, None)
+    }
+
+    /// Renders progressively: one pass per entry of `passes` (samples per pixel), each with its own
+    /// seed, accumulated into one image weighted by samples. After each pass `on_pass` gets the image so
+    /// far and the time spent; it returns [`ControlFlow::Break`] to stop there (a time budget). The
+    /// passes always sample the pixel area (antialiasing on), so every pass estimates the same image.
+    ///
+    /// ```
+    /// use std::ops::ControlFlow;
+    /// use raylume_scene::{p3f, RenderOptions, DEFAULT_SCENE};
+    /// let (scene, _) = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap();
+    /// let options = RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() };
+    /// let mut seen = Vec::new();
+    /// let out = scene.render_progressive(&options, &[1, 3, 4, 8], &mut |p| {
+    ///     seen.push(p.samples_per_pixel);
+    ///     if p.samples_per_pixel >= 8 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+    /// }).unwrap();
+    /// assert_eq!(seen, [1, 5, 9]); // 3 and 8 round up to 4 and 9 jittered samples
+    /// assert_eq!(out.film.width(), 16);
+    /// ```
+    pub fn render_progressive(
+        &self,
+        options: &RenderOptions,
+        passes: &[u32],
+        on_pass: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+    ) -> Result<RenderOutput, SceneError> {
+        if passes.is_empty() || passes.contains(&0) {
+            return Err(SceneError::Invalid("progressive passes need at least one sample each".to_owned()));
+        }
+        self.render_passes(options, &|| {}, Some((passes, on_pass)))
+    }
+
+    fn render_passes(
+        &self,
+        options: &RenderOptions,
+        on_row: &(dyn Fn() + Sync),
+        progressive: Option<(&[u32], OnPass)>,
+    ) -> Result<RenderOutput, SceneError> {
         let (view, lights, materials, shutter) = self.prepared(options)?;
-        let features = self.features_of(&view, &lights, &materials, shutter, &options.settings);
+        let mut features = self.features_of(&view, &lights, &materials, shutter, &options.settings);
+        features.antialiasing |= progressive.is_some();
         let env = match (&self.env, options.use_env) {
             (Some(name), true) => Some(load_cubemap(name, &options.env_dirs)?),
             _ => None,
@@ -304,13 +358,27 @@ impl Scene {
         let Primitives { primitives, shading, vertex_normals } = self.primitives();
         let kind = self.accel_kind(options);
         let build = Instant::now();
-        let job = Job { view: &view, shutter, features, settings: &options.settings, on_row };
+        let passes = [options.settings.spp];
+        let job = Job {
+            view: &view,
+            shutter,
+            features,
+            settings: &options.settings,
+            on_row,
+            sampler: options.sampler,
+            passes: progressive.as_ref().map_or(&passes[..], |p| p.0),
+        };
+        let mut ignore = |_: &Progress| ControlFlow::Continue(());
+        let on_pass: OnPass = match progressive {
+            Some(p) => p.1,
+            None => &mut ignore,
+        };
         // One monomorphised path per accelerator: the world is generic over it.
         macro_rules! run {
             ($accel:expr) => {{
                 let world = World { accel: $accel, materials, shading, vertex_normals, lights, background };
                 let b = build.elapsed().as_secs_f64();
-                let (f, s, r) = job.with_camera(&world);
+                let (f, s, r) = job.with_camera(&world, on_pass);
                 (f, s, b, r)
             }};
         }
@@ -331,45 +399,111 @@ struct Job<'a> {
     features: Features,
     settings: &'a RenderSettings,
     on_row: &'a (dyn Fn() + Sync),
+    sampler: SamplerKind,
+    /// Samples per pixel of each pass (one pass for a plain render).
+    passes: &'a [u32],
 }
 
+/// What [`Scene::render_progressive`] hands out after each pass.
+#[derive(Debug)]
+pub struct Progress<'a> {
+    /// The image so far: the sample-weighted mean of all passes.
+    pub film: &'a Film,
+    /// Samples per pixel so far.
+    pub samples_per_pixel: u32,
+    /// Seconds spent rendering so far (building the accelerator excluded).
+    pub seconds: f64,
+    /// Index of the pass just finished.
+    pub pass: usize,
+}
+
+type OnPass<'a> = &'a mut dyn FnMut(&Progress) -> ControlFlow<()>;
+
 impl Job<'_> {
-    fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>) -> (Film, RayStats, f64) {
+    fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>, on_pass: OnPass) -> (Film, RayStats, f64) {
         let open = self.shutter.min;
         match (self.features.depth_of_field, self.features.motion_blur) {
-            (false, false) => self.with_sampler(world, &Pinhole::new(self.view).at_time(open)),
-            (true, false) => self.with_sampler(world, &ThinLens::new(self.view).at_time(open)),
-            (false, true) => self.with_sampler(world, &MotionBlur::new(Pinhole::new(self.view), self.shutter)),
-            (true, true) => self.with_sampler(world, &MotionBlur::new(ThinLens::new(self.view), self.shutter)),
+            (false, false) => self.with_sampler(world, &Pinhole::new(self.view).at_time(open), on_pass),
+            (true, false) => self.with_sampler(world, &ThinLens::new(self.view).at_time(open), on_pass),
+            (false, true) => self.with_sampler(world, &MotionBlur::new(Pinhole::new(self.view), self.shutter), on_pass),
+            (true, true) => self.with_sampler(world, &MotionBlur::new(ThinLens::new(self.view), self.shutter), on_pass),
         }
     }
 
-    fn with_sampler<A: Accelerator, C: Camera>(&self, world: &World<A, Phong>, camera: &C) -> (Film, RayStats, f64) {
+    fn with_sampler<A: Accelerator, C: Camera>(
+        &self,
+        world: &World<A, Phong>,
+        camera: &C,
+        on_pass: OnPass,
+    ) -> (Film, RayStats, f64) {
         let s = self.settings;
-        match (self.features.antialiasing, self.features.area_lights) {
-            (false, false) => self.go(world, camera, &Centre::new(s.seed), &Whitted::new(s)),
-            (false, true) => {
-                self.go(world, camera, &Centre::new(s.seed), &Whitted::<{ SoftShadows::GRID }>::with_soft_shadows(s))
-            }
-            (true, false) => self.go(world, camera, &Jittered::new(s.seed, s.strata()), &Whitted::new(s)),
-            (true, true) => self.go(
+        let strata = |spp: u32| RenderSettings { spp, ..*s }.strata();
+        let stratified = Whitted::<{ SoftShadows::STRATIFIED }>::with_soft_shadows(s);
+        match (self.features.antialiasing, self.features.area_lights, self.sampler) {
+            (false, false, _) => self.go(world, camera, |seed, _| Centre::new(seed), &Whitted::new(s), on_pass),
+            (false, true, _) => self.go(
                 world,
                 camera,
-                &Jittered::new(s.seed, s.strata()),
-                &Whitted::<{ SoftShadows::STRATIFIED }>::with_soft_shadows(s),
+                |seed, _| Centre::new(seed),
+                &Whitted::<{ SoftShadows::GRID }>::with_soft_shadows(s),
+                on_pass,
             ),
+            (true, false, SamplerKind::Jittered) => {
+                self.go(world, camera, |seed, spp| Jittered::new(seed, strata(spp)), &Whitted::new(s), on_pass)
+            }
+            (true, true, SamplerKind::Jittered) => {
+                self.go(world, camera, |seed, spp| Jittered::new(seed, strata(spp)), &stratified, on_pass)
+            }
+            (true, false, SamplerKind::Independent) => {
+                self.go(world, camera, Independent::new, &Whitted::new(s), on_pass)
+            }
+            (true, true, SamplerKind::Independent) => self.go(world, camera, Independent::new, &stratified, on_pass),
         }
     }
 
+    /// Renders every pass with its own seed and accumulates them, weighted by samples.
     fn go<A: Accelerator, C: Camera, S: Sampler, I: Integrator>(
         &self,
         world: &World<A, Phong>,
         camera: &C,
-        sampler: &S,
+        make_sampler: impl Fn(u64, u32) -> S,
         integrator: &I,
+        on_pass: OnPass,
     ) -> (Film, RayStats, f64) {
         let start = Instant::now();
-        let (film, stats) = render(world, camera, sampler, integrator, self.settings, self.on_row);
+        let (mut acc, mut total, mut stats) = (None::<Film>, 0u32, RayStats::default());
+        for (pass, &spp) in self.passes.iter().enumerate() {
+            // Pass 0 keeps the seed, so a one-pass render is the plain render.
+            let seed =
+                if pass == 0 { self.settings.seed } else { splitmix(self.settings.seed.wrapping_add(pass as u64)) };
+            let settings = RenderSettings { spp, seed, ..*self.settings };
+            let sampler = make_sampler(seed, spp);
+            let n = sampler.samples_per_pixel();
+            let (film, s) = render(world, camera, &sampler, integrator, &settings, self.on_row);
+            stats += s;
+            acc = Some(match acc {
+                None => film,
+                Some(prev) => {
+                    let (wa, wb) = (total as f32 / (total + n) as f32, n as f32 / (total + n) as f32);
+                    let pixels = prev.pixels().iter().zip(film.pixels()).map(|(a, b)| *a * wa + *b * wb).collect();
+                    Film::from_pixels(film.width(), film.height(), pixels)
+                }
+            });
+            total += n;
+            let film = acc.as_ref().expect("a pass was rendered");
+            let progress = Progress { film, samples_per_pixel: total, seconds: start.elapsed().as_secs_f64(), pass };
+            if on_pass(&progress).is_break() {
+                break;
+            }
+        }
+        let film = acc.unwrap_or_else(|| Film::from_pixels(0, 0, Vec::new()));
         (film, stats, start.elapsed().as_secs_f64())
     }
+}
+
+fn splitmix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }

@@ -1,0 +1,188 @@
+//! `raylume converge`: error against run time, per sample count and sampler.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use raylume_integrator::{Film, RenderSettings, metrics};
+use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, p3f};
+
+use crate::{Failure, SamplerArg, bad_input};
+
+#[derive(clap::Args)]
+pub struct ConvergeArgs {
+    /// The p3f scene; without it, the embedded default scene.
+    scene: Option<PathBuf>,
+    /// A reference image (.pfm or .exr, linear) instead of rendering one.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of the rendered reference.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Sample counts to measure.
+    #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
+    spp_list: Vec<u32>,
+    /// Samplers to compare.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "independent,jittered")]
+    sampler: Vec<SamplerArg>,
+    /// Image width (give --height too).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Image height (give --width too).
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Ignore the scene's cubemap.
+    #[arg(long)]
+    no_env: bool,
+    /// The report folder (created if needed).
+    #[arg(short, long, default_value = "report")]
+    output: PathBuf,
+}
+
+pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
+    let (scene, env_dirs) = match &args.scene {
+        Some(path) => {
+            let (scene, _) = p3f::load(path, &p3f::LoadOptions::default()).map_err(bad_input)?;
+            let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+            (scene, vec![dir.clone(), dir.join("..")])
+        }
+        None => (
+            p3f::parse(DEFAULT_SCENE, "<default scene>", &p3f::LoadOptions::default()).map_err(bad_input)?.0,
+            Vec::new(),
+        ),
+    };
+    if args.spp_list.is_empty() || args.spp_list.contains(&0) || args.reference_spp == 0 {
+        return Err(bad_input("sample counts must be at least 1"));
+    }
+    let base = RenderOptions {
+        resolution: args.width.zip(args.height),
+        env_dirs,
+        use_env: !args.no_env,
+        ..RenderOptions::default()
+    };
+    std::fs::create_dir_all(&args.output)
+        .map_err(|e| Failure { code: 1, message: format!("{}: {e}", args.output.display()) })?;
+    let render = |spp: u32, seed: u64, sampler: SamplerKind| {
+        let options = RenderOptions {
+            settings: RenderSettings { spp, seed, ..RenderSettings::default() },
+            sampler,
+            ..base.clone()
+        };
+        // One pass: a progressive render forces area sampling of the pixel even at 1 spp.
+        let mut once = |_: &raylume_scene::Progress| std::ops::ControlFlow::Continue(());
+        scene.render_progressive(&options, &[spp], &mut once).map_err(bad_input)
+    };
+    let reference: Film = match &args.reference {
+        Some(path) => read_linear(path)?,
+        None => {
+            eprintln!("raylume: rendering the reference at {} spp", args.reference_spp);
+            let out = render(args.reference_spp, 0x005e_ed0f_7e1e, SamplerKind::Jittered)?;
+            out.film
+                .write(&args.output.join("reference.pfm"))
+                .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+            out.film
+        }
+    };
+    let reference_channels = reference.channels();
+    let mut csv = String::from("sampler,spp,seconds,rmse,rel_mse,psnr,mae\n");
+    let mut table = String::new();
+    for sampler in &args.sampler {
+        let kind: SamplerKind = (*sampler).into();
+        let (mut times, mut errors) = (Vec::new(), Vec::new());
+        for &spp in &args.spp_list {
+            let out = render(spp, 1, kind)?;
+            if (out.film.width(), out.film.height()) != (reference.width(), reference.height()) {
+                return Err(bad_input(format!(
+                    "the reference is {}x{} but the renders are {}x{}",
+                    reference.width(),
+                    reference.height(),
+                    out.film.width(),
+                    out.film.height()
+                )));
+            }
+            let image = out.film.channels();
+            let rmse = metrics::rmse(&image, &reference_channels).unwrap_or(f64::NAN);
+            let rel = metrics::rel_mse(&image, &reference_channels, 0.01).unwrap_or(f64::NAN);
+            let psnr = metrics::psnr(&image, &reference_channels, 1.0).unwrap_or(f64::NAN);
+            let mae = metrics::mae(&image, &reference_channels).unwrap_or(f64::NAN);
+            let name = format!("{sampler:?}").to_lowercase();
+            let _ = writeln!(csv, "{name},{spp},{:.6},{rmse:.6e},{rel:.6e},{psnr:.3},{mae:.6e}", out.render_seconds);
+            let _ = writeln!(
+                table,
+                "{name:<12} {spp:>6} {:>10.4} {rmse:>12.5e} {rel:>12.5e} {psnr:>8.2} {mae:>12.5e}",
+                out.render_seconds
+            );
+            times.push(out.render_seconds);
+            errors.push(rmse);
+        }
+        let slope = metrics::log_log_slope(&times, &errors);
+        let _ = writeln!(
+            table,
+            "{:<12} slope of log RMSE against log seconds: {}",
+            format!("{sampler:?}").to_lowercase(),
+            slope.map_or("n/a".to_owned(), |s| format!("{s:.3}"))
+        );
+    }
+    let csv_path = args.output.join("convergence.csv");
+    std::fs::write(&csv_path, csv).map_err(|e| Failure { code: 1, message: format!("{}: {e}", csv_path.display()) })?;
+    println!(
+        "{:<12} {:>6} {:>10} {:>12} {:>12} {:>8} {:>12}",
+        "sampler", "spp", "seconds", "rmse", "rel_mse", "psnr", "mae"
+    );
+    print!("{table}");
+    eprintln!("raylume: wrote {}", csv_path.display());
+    Ok(())
+}
+
+/// Reads a linear reference image: PFM (as raylume writes it) or OpenEXR.
+fn read_linear(path: &Path) -> Result<Film, Failure> {
+    let fail = |m: String| bad_input(format!("{}: {m}", path.display()));
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext == "pfm" {
+        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+        let mut fields = Vec::new();
+        let mut pos = 0;
+        while fields.len() < 4 && pos < bytes.len() {
+            while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+                pos += 1;
+            }
+            let start = pos;
+            while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+                pos += 1;
+            }
+            fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+        }
+        pos += 1;
+        if fields.len() < 4 || fields[0] != "PF" {
+            return Err(fail("not a colour PFM file (expected 'PF')".to_owned()));
+        }
+        let (w, h): (u32, u32) = (
+            fields[1].parse().map_err(|_| fail("bad width".into()))?,
+            fields[2].parse().map_err(|_| fail("bad height".into()))?,
+        );
+        let scale: f32 = fields[3].parse().map_err(|_| fail("bad scale".into()))?;
+        let n = w as usize * h as usize;
+        if w == 0 || h == 0 || bytes.len().saturating_sub(pos) != n * 12 {
+            return Err(fail(format!("expected {w}x{h} pixels of 12 bytes")));
+        }
+        let read = |b: &[u8]| {
+            if scale < 0.0 {
+                f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            } else {
+                f32::from_be_bytes([b[0], b[1], b[2], b[3]])
+            }
+        };
+        let mut pixels = vec![glam::Vec3::ZERO; n];
+        for (i, c) in bytes[pos..].chunks_exact(12).enumerate() {
+            // PFM rows are stored bottom first.
+            let (row, col) = (i / w as usize, i % w as usize);
+            pixels[(h as usize - 1 - row) * w as usize + col] =
+                glam::Vec3::new(read(&c[0..4]), read(&c[4..8]), read(&c[8..12]));
+        }
+        Ok(Film::from_pixels(w, h, pixels))
+    } else {
+        let img = image::open(path).map_err(|e| fail(e.to_string()))?.into_rgb32f();
+        let (w, h) = img.dimensions();
+        let pixels = img.pixels().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
+        Ok(Film::from_pixels(w, h, pixels))
+    }
+}
