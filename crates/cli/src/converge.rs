@@ -84,6 +84,7 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     };
     let reference_channels = reference.channels();
     let mut csv = String::from("sampler,spp,seconds,rmse,rel_mse,psnr,mae\n");
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut table = String::new();
     for sampler in &args.sampler {
         let kind: SamplerKind = (*sampler).into();
@@ -115,6 +116,12 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             errors.push(rmse);
         }
         let slope = metrics::log_log_slope(&times, &errors);
+        let label = format!(
+            "{} (slope {})",
+            format!("{sampler:?}").to_lowercase(),
+            slope.map_or("n/a".to_owned(), |s| format!("{s:.2}"))
+        );
+        series.push((label, times.iter().copied().zip(errors.iter().copied()).collect()));
         let _ = writeln!(
             table,
             "{:<12} slope of log RMSE against log seconds: {}",
@@ -122,6 +129,10 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             slope.map_or("n/a".to_owned(), |s| format!("{s:.3}"))
         );
     }
+    let png_path = args.output.join("convergence.png");
+    plot(&png_path, &series, &scene_name(&args))
+        .map_err(|e| Failure { code: 1, message: format!("{}: {e}", png_path.display()) })?;
+    eprintln!("raylume: wrote {}", png_path.display());
     let csv_path = args.output.join("convergence.csv");
     std::fs::write(&csv_path, csv).map_err(|e| Failure { code: 1, message: format!("{}: {e}", csv_path.display()) })?;
     println!(
@@ -185,4 +196,61 @@ fn read_linear(path: &Path) -> Result<Film, Failure> {
         let pixels = img.pixels().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
         Ok(Film::from_pixels(w, h, pixels))
     }
+}
+
+fn scene_name(args: &ConvergeArgs) -> String {
+    args.scene
+        .as_ref()
+        .and_then(|p| p.file_name())
+        .map_or("default scene".to_owned(), |n| n.to_string_lossy().into_owned())
+}
+
+/// A log-log plot of RMSE against seconds, one line per sampler, written through a temporary file.
+fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let points: Vec<(f64, f64)> =
+        series.iter().flat_map(|s| s.1.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    if points.is_empty() {
+        return Err("no positive points to plot".into());
+    }
+    let (x0, x1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (y0, y1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let tmp = path.with_file_name(format!(".convergence.{}.png", std::process::id()));
+    {
+        let root = BitMapBackend::new(&tmp, (900, 600)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("RMSE against render time: {title}"), ("sans-serif", 24))
+            .margin(16)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0 * 0.8..x1 * 1.25).log_scale(), (y0 * 0.8..y1 * 1.25).log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("seconds (log)")
+            .y_desc("RMSE against the reference (log)")
+            .x_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .light_line_style(WHITE)
+            .draw()?;
+        for (i, (label, pts)) in series.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+                .label(label.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2)));
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()?;
+        root.present()?;
+    }
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })?;
+    Ok(())
 }

@@ -258,6 +258,8 @@ fn converge_writes_a_well_formed_csv() {
     }
     assert!(String::from_utf8_lossy(&run.stdout).contains("slope of log RMSE against log seconds"));
     assert!(report.join("reference.pfm").is_file());
+    let png = std::fs::read(report.join("convergence.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
     // The reference can be read back.
     let again = raylume()
         .args([
