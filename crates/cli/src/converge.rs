@@ -22,7 +22,7 @@ pub struct ConvergeArgs {
     #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
     spp_list: Vec<u32>,
     /// Samplers to compare.
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "independent,jittered")]
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "independent,jittered,sobol")]
     sampler: Vec<SamplerArg>,
     /// Image width (give --height too).
     #[arg(long, requires = "height")]

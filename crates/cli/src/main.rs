@@ -170,6 +170,7 @@ struct BenchCli {
 enum SamplerArg {
     Jittered,
     Independent,
+    Sobol,
 }
 
 impl From<SamplerArg> for SamplerKind {
@@ -177,6 +178,7 @@ impl From<SamplerArg> for SamplerKind {
         match s {
             SamplerArg::Jittered => SamplerKind::Jittered,
             SamplerArg::Independent => SamplerKind::Independent,
+            SamplerArg::Sobol => SamplerKind::Sobol,
         }
     }
 }

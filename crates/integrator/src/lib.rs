@@ -37,7 +37,7 @@ mod whitted;
 pub use background::{Background, Cubemap, CubemapFace};
 pub use film::{Film, OutputError};
 pub use render::{RayStats, RenderSettings, render};
-pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler};
+pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};
 
 use raylume_accel::Accelerator;

@@ -267,6 +267,35 @@ mod tests {
     }
 
     #[test]
+    fn sobol_is_stratified_in_every_dimension_pair() {
+        // 16 Owen-scrambled Sobol points fill each 4x4 grid cell once, and each 16-row strip once
+        // (elementary intervals of a (0,2)-sequence survive the scrambling), for film, lens and light.
+        let s = Sobol::new(3, 16);
+        for pixel in 0..5u32 {
+            for dim in 0..3 {
+                let (mut grid, mut rows, mut cols) = ([0u32; 16], [0u32; 16], [0u32; 16]);
+                for i in 0..16 {
+                    let mut src = s.begin(pixel, 2 * pixel, i);
+                    let p = match dim {
+                        0 => src.film(),
+                        1 => src.light(),
+                        _ => src.lens(),
+                    };
+                    assert!(p.x >= 0.0 && p.x < 1.0 && p.y >= 0.0 && p.y < 1.0);
+                    grid[(p.x * 4.0) as usize + 4 * (p.y * 4.0) as usize] += 1;
+                    rows[(p.y * 16.0) as usize] += 1;
+                    cols[(p.x * 16.0) as usize] += 1;
+                }
+                assert!(grid.iter().chain(&rows).chain(&cols).all(|&c| c == 1), "pixel {pixel} dim {dim}");
+            }
+        }
+        // Different pixels and dimensions get different points.
+        assert_ne!(s.begin(0, 0, 0).film(), s.begin(1, 0, 0).film());
+        let mut a = s.begin(0, 0, 5);
+        assert_ne!(a.film(), a.lens());
+    }
+
+    #[test]
     fn samples_depend_only_on_seed_pixel_and_index() {
         let s = Jittered::new(9, 3);
         let a: Vec<Vec2> = (0..9).map(|i| s.begin(10, 20, i).film()).collect();
@@ -275,5 +304,119 @@ mod tests {
         assert_eq!(a, b);
         assert_ne!(s.begin(10, 20, 0).film(), Jittered::new(10, 3).begin(10, 20, 0).film());
         assert_ne!(s.begin(10, 20, 0).uniform3(), s.begin(11, 20, 0).uniform3());
+    }
+}
+
+/// An Owen-scrambled Sobol sampler (Burley, "Practical Hash-based Owen Scrambling", JCGT 2020): each
+/// pair of dimensions (film, lens, light) and the time take the first two Sobol dimensions, with the
+/// sample index shuffled and the points scrambled by hashes of the pixel and the dimension, so the
+/// dimensions are decorrelated and every pixel gets its own low-discrepancy set. Best with powers of
+/// two samples per pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sobol {
+    seed: u64,
+    spp: u32,
+}
+
+impl Sobol {
+    /// `spp` samples per pixel.
+    pub fn new(seed: u64, spp: u32) -> Self {
+        Self { seed, spp: spp.max(1) }
+    }
+}
+
+/// The per-sample state of [`Sobol`].
+#[derive(Clone, Debug)]
+pub struct SobolSource {
+    index: u32,
+    pixel_key: u32,
+    /// Next dimension for the uniform draws (fuzzy reflections).
+    next_dim: u32,
+}
+
+/// The Laine–Karras permutation, applied to bit-reversed values: a nested uniform (Owen) scramble.
+#[inline]
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    let mut v = x.reverse_bits();
+    v = v.wrapping_add(seed);
+    v ^= v.wrapping_mul(0x6c50_b47c);
+    v ^= v.wrapping_mul(0xb82f_1e52);
+    v ^= v.wrapping_mul(0xc7af_e638);
+    v ^= v.wrapping_mul(0x8d22_f6e6);
+    v.reverse_bits()
+}
+
+/// The second Sobol dimension of index `i` (generator v_k = v_(k-1) ^ (v_(k-1) >> 1)).
+#[inline]
+fn sobol_dim1(mut i: u32) -> u32 {
+    let (mut x, mut v) = (0u32, 1u32 << 31);
+    while i != 0 {
+        if i & 1 != 0 {
+            x ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    x
+}
+
+#[inline]
+fn hash32(a: u32, b: u32) -> u32 {
+    (splitmix(((a as u64) << 32) | b as u64) >> 32) as u32
+}
+
+#[inline]
+fn to_unit(x: u32) -> f32 {
+    // 24 bits, so the value stays below 1 in f32.
+    (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+impl SobolSource {
+    /// The 2D point of dimension pair `dim`.
+    #[inline]
+    fn pair(&self, dim: u32) -> Vec2 {
+        let key = hash32(self.pixel_key, dim);
+        let i = owen_scramble(self.index, key);
+        let x = owen_scramble(i.reverse_bits(), hash32(key, 1));
+        let y = owen_scramble(sobol_dim1(i), hash32(key, 2));
+        Vec2::new(to_unit(x), to_unit(y))
+    }
+}
+
+impl SampleSource for SobolSource {
+    #[inline]
+    fn film(&mut self) -> Vec2 {
+        self.pair(0)
+    }
+    #[inline]
+    fn light(&mut self) -> Vec2 {
+        self.pair(1)
+    }
+    #[inline]
+    fn lens(&mut self) -> Vec2 {
+        self.pair(2)
+    }
+    #[inline]
+    fn time(&mut self) -> f32 {
+        self.pair(3).x
+    }
+    #[inline]
+    fn uniform3(&mut self) -> Vec3A {
+        let (a, b) = (self.pair(self.next_dim), self.pair(self.next_dim + 1));
+        self.next_dim += 2;
+        Vec3A::new(a.x, a.y, b.x)
+    }
+}
+
+impl Sampler for Sobol {
+    type Source = SobolSource;
+    fn samples_per_pixel(&self) -> u32 {
+        self.spp
+    }
+    #[inline]
+    fn begin(&self, x: u32, y: u32, index: u32) -> SobolSource {
+        let pixel = ((y as u64) << 32) | x as u64;
+        let pixel_key = splitmix(self.seed ^ splitmix(pixel)) as u32;
+        SobolSource { index, pixel_key, next_dim: 4 }
     }
 }

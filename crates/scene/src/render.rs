@@ -7,7 +7,7 @@ use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
     Background, Centre, Film, Independent, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading,
-    SoftShadows, Whitted, World, render,
+    Sobol, SoftShadows, Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
@@ -53,6 +53,8 @@ pub enum SamplerKind {
     Jittered,
     /// Independent uniform random samples.
     Independent,
+    /// Owen-scrambled Sobol points (a low-discrepancy sequence).
+    Sobol,
 }
 
 impl Default for RenderOptions {
@@ -458,6 +460,8 @@ impl Job<'_> {
                 self.go(world, camera, Independent::new, &Whitted::new(s), on_pass)
             }
             (true, true, SamplerKind::Independent) => self.go(world, camera, Independent::new, &stratified, on_pass),
+            (true, false, SamplerKind::Sobol) => self.go(world, camera, Sobol::new, &Whitted::new(s), on_pass),
+            (true, true, SamplerKind::Sobol) => self.go(world, camera, Sobol::new, &stratified, on_pass),
         }
     }
 
