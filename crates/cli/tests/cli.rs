@@ -246,11 +246,11 @@ fn converge_writes_a_well_formed_csv() {
     let csv = std::fs::read_to_string(report.join("convergence.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], "sampler,spp,seconds,rmse,rel_mse,psnr,mae");
-    assert_eq!(lines.len(), 1 + 2 * 3, "two samplers, three sample counts");
+    assert_eq!(lines.len(), 1 + 3 * 3, "three samplers, three sample counts");
     for line in &lines[1..] {
         let fields: Vec<&str> = line.split(',').collect();
         assert_eq!(fields.len(), 7);
-        assert!(fields[0] == "independent" || fields[0] == "jittered");
+        assert!(["independent", "jittered", "sobol"].contains(&fields[0]), "{line}");
         for f in &fields[1..] {
             let v: f64 = f.parse().unwrap();
             assert!(v.is_finite() && v >= 0.0, "{line}");
