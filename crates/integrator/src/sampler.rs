@@ -63,9 +63,10 @@ impl Independent {
 }
 
 /// The course's jittered sampler: `n x n` strata per pixel with one random point in each. The area
-/// light sample shares the pixel sample's stratum (as the course ties them); the lens and the shutter
-/// are stratified too, through their own random permutation of the strata per pixel, so no two
-/// dimensions are correlated.
+/// light, the lens and the shutter are stratified too: each pixel stratum is tied to one stratum of
+/// each of them through a random permutation per pixel and dimension (the course ties the light
+/// stratum to the pixel stratum directly, which biases soft shadows), so no two dimensions are
+/// correlated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Jittered {
     seed: u64,
@@ -124,7 +125,11 @@ impl SampleSource for Source {
 
     #[inline]
     fn light(&mut self) -> Vec2 {
-        self.stratified(self.stratum)
+        // One light stratum per pixel stratum, through a per-pixel random permutation: the identity
+        // (the course's tie) would only integrate the diagonal blocks of pixel x light and bias the
+        // penumbra; a permutation keeps both stratified and the estimate unbiased.
+        let s = permute(self.stratum, self.n * self.n, self.scramble ^ 0x68e3_1da4);
+        self.stratified(s)
     }
 
     #[inline]
@@ -250,20 +255,20 @@ mod tests {
     fn jittered_puts_one_sample_in_each_stratum_of_every_dimension() {
         let s = Jittered::new(3, 4);
         let mut film = [0u32; 16];
+        let mut light = [0u32; 16];
         let mut lens = [0u32; 16];
         let mut time = [0u32; 16];
         for i in 0..16 {
             let mut src = s.begin(5, 7, i);
             let f = src.film();
             let l = src.light();
-            // The light shares the film's stratum.
-            assert_eq!(((f.x * 4.0) as u32, (f.y * 4.0) as u32), ((l.x * 4.0) as u32, (l.y * 4.0) as u32));
             film[(f.x * 4.0) as usize + 4 * (f.y * 4.0) as usize] += 1;
+            light[(l.x * 4.0) as usize + 4 * (l.y * 4.0) as usize] += 1;
             let le = src.lens();
             lens[(le.x * 4.0) as usize + 4 * (le.y * 4.0) as usize] += 1;
             time[(src.time() * 16.0) as usize] += 1;
         }
-        assert!(film.iter().chain(&lens).chain(&time).all(|&c| c == 1));
+        assert!(film.iter().chain(&light).chain(&lens).chain(&time).all(|&c| c == 1));
     }
 
     #[test]

@@ -13,7 +13,7 @@ impl SoftShadows {
     pub const NONE: u8 = 0;
     /// Area lights as a fixed `N x N` grid of point lights of colour / N^2 (without antialiasing).
     pub const GRID: u8 = 1;
-    /// Area lights sampled once per camera sample, in the pixel sample's stratum (with antialiasing).
+    /// Area lights sampled once per camera sample, stratified with the pixel samples (with antialiasing).
     pub const STRATIFIED: u8 = 2;
 }
 
