@@ -21,6 +21,10 @@ pub struct ConvergeArgs {
     /// Sample counts to measure.
     #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
     spp_list: Vec<u32>,
+    /// Measure at these render times (seconds) instead: each sampler renders progressively and the
+    /// image is measured when each budget is reached (instead of --spp-list).
+    #[arg(long, value_delimiter = ',')]
+    time_budgets: Option<Vec<f64>>,
     /// Samplers to compare.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "independent,jittered,sobol")]
     sampler: Vec<SamplerArg>,
@@ -89,30 +93,37 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     for sampler in &args.sampler {
         let kind: SamplerKind = (*sampler).into();
         let (mut times, mut errors) = (Vec::new(), Vec::new());
-        for &spp in &args.spp_list {
-            let out = render(spp, 1, kind)?;
-            if (out.film.width(), out.film.height()) != (reference.width(), reference.height()) {
+        let measured: Vec<(u32, f64, Film)> = match &args.time_budgets {
+            Some(budgets) => progressive_budgets(&scene, &base, kind, budgets)?,
+            None => args
+                .spp_list
+                .iter()
+                .map(|&spp| render(spp, 1, kind).map(|out| (spp, out.render_seconds, out.film)))
+                .collect::<Result<_, _>>()?,
+        };
+        for (spp, seconds, film) in measured {
+            if (film.width(), film.height()) != (reference.width(), reference.height()) {
                 return Err(bad_input(format!(
                     "the reference is {}x{} but the renders are {}x{}",
                     reference.width(),
                     reference.height(),
-                    out.film.width(),
-                    out.film.height()
+                    film.width(),
+                    film.height()
                 )));
             }
-            let image = out.film.channels();
+            let image = film.channels();
             let rmse = metrics::rmse(&image, &reference_channels).unwrap_or(f64::NAN);
             let rel = metrics::rel_mse(&image, &reference_channels, 0.01).unwrap_or(f64::NAN);
             let psnr = metrics::psnr(&image, &reference_channels, 1.0).unwrap_or(f64::NAN);
             let mae = metrics::mae(&image, &reference_channels).unwrap_or(f64::NAN);
             let name = format!("{sampler:?}").to_lowercase();
-            let _ = writeln!(csv, "{name},{spp},{:.6},{rmse:.6e},{rel:.6e},{psnr:.3},{mae:.6e}", out.render_seconds);
+            let _ = writeln!(csv, "{name},{spp},{:.6},{rmse:.6e},{rel:.6e},{psnr:.3},{mae:.6e}", seconds);
             let _ = writeln!(
                 table,
                 "{name:<12} {spp:>6} {:>10.4} {rmse:>12.5e} {rel:>12.5e} {psnr:>8.2} {mae:>12.5e}",
-                out.render_seconds
+                seconds
             );
-            times.push(out.render_seconds);
+            times.push(seconds);
             errors.push(rmse);
         }
         let slope = metrics::log_log_slope(&times, &errors);
@@ -253,4 +264,36 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
         let _ = std::fs::remove_file(&tmp);
     })?;
     Ok(())
+}
+
+/// Renders progressively (passes of 1, 1, 4, 4, 16, 16, ... samples) and keeps the image available
+/// when each time budget is reached: `(samples per pixel, seconds, image)` per budget.
+fn progressive_budgets(
+    scene: &raylume_scene::Scene,
+    base: &RenderOptions,
+    sampler: SamplerKind,
+    budgets: &[f64],
+) -> Result<Vec<(u32, f64, Film)>, Failure> {
+    let mut budgets: Vec<f64> = budgets.to_vec();
+    if budgets.is_empty() || budgets.iter().any(|b| !b.is_finite() || *b <= 0.0) {
+        return Err(bad_input("--time-budgets: expected positive numbers of seconds"));
+    }
+    budgets.sort_by(f64::total_cmp);
+    let passes: Vec<u32> = (0..16).map(|i| 4u32.pow(i / 2)).collect();
+    let options =
+        RenderOptions { settings: RenderSettings { seed: 1, ..RenderSettings::default() }, sampler, ..base.clone() };
+    let mut found = Vec::new();
+    scene
+        .render_progressive(&options, &passes, &mut |p| {
+            while found.len() < budgets.len() && p.seconds >= budgets[found.len()] {
+                found.push((p.samples_per_pixel, p.seconds, p.film.clone()));
+            }
+            if found.len() == budgets.len() {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        })
+        .map_err(bad_input)?;
+    Ok(found)
 }

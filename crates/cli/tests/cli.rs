@@ -281,3 +281,33 @@ fn converge_writes_a_well_formed_csv() {
         .unwrap();
     assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
 }
+
+#[test]
+fn converge_by_time_budgets() {
+    let dir = temp_dir("budgets");
+    let run = raylume()
+        .args([
+            "converge",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--reference-spp",
+            "16",
+            "--time-budgets",
+            "0.002,0.01",
+            "-o",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let csv = std::fs::read_to_string(dir.join("convergence.csv")).unwrap();
+    let rows: Vec<Vec<f64>> =
+        csv.lines().skip(1).map(|l| l.split(',').skip(1).map(|f| f.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 3 * 2, "three samplers, two budgets");
+    for pair in rows.chunks(2) {
+        assert!(pair[0][1] >= 0.002 && pair[1][1] >= 0.01, "each image is taken once its budget has passed");
+        assert!(pair[1][0] >= pair[0][0], "more time, more samples");
+    }
+}
