@@ -295,5 +295,12 @@ fn progressive_budgets(
             }
         })
         .map_err(bad_input)?;
+    if found.len() < budgets.len() {
+        eprintln!(
+            "raylume: the budgets from {} s on were not reached after {} passes; they are left out",
+            budgets[found.len()],
+            passes.len()
+        );
+    }
     Ok(found)
 }
