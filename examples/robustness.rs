@@ -19,10 +19,8 @@ fn unif(r: &mut Pcg32) -> f32 {
 }
 
 fn unit_vector(r: &mut Pcg32) -> Vec3A {
-    let z = 1.0 - 2.0 * unif(r);
-    let phi = std::f32::consts::TAU * unif(r);
-    let s = (1.0 - z * z).max(0.0).sqrt();
-    Vec3A::new(s * phi.cos(), s * phi.sin(), z)
+    let (a, b) = (unif(r), unif(r));
+    raylume::geometry::sampling::uniform_sphere(Vec2::new(a, b))
 }
 
 /// Möller–Trumbore as it is usually written: an absolute determinant epsilon, no NaN guards.

@@ -23,10 +23,8 @@ fn unif(r: &mut Pcg32) -> f32 {
 }
 
 fn unit_vector(r: &mut Pcg32) -> Vec3A {
-    let z = 1.0 - 2.0 * unif(r);
-    let phi = std::f32::consts::TAU * unif(r);
-    let s = (1.0 - z * z).max(0.0).sqrt();
-    Vec3A::new(s * phi.cos(), s * phi.sin(), z)
+    let (a, b) = (unif(r), unif(r));
+    raylume::geometry::sampling::uniform_sphere(Vec2::new(a, b))
 }
 
 /// T1: rays from inside a closed icosphere at random directions, vertices, edge points and edge

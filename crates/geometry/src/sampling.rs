@@ -24,6 +24,21 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     Vec2::new(theta.cos(), theta.sin()) * r
 }
 
+/// Maps a point of `[0,1)^2` to a uniformly distributed unit vector (`u.x` sets the height, `u.y`
+/// the angle around z).
+///
+/// ```
+/// use raylume_geometry::{sampling::uniform_sphere, Vec2};
+/// assert!((uniform_sphere(Vec2::new(0.3, 0.8)).length() - 1.0).abs() < 1e-6);
+/// ```
+#[inline]
+pub fn uniform_sphere(u: Vec2) -> Vec3A {
+    let z = 1.0 - 2.0 * u.x;
+    let r_xy = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    Vec3A::new(r_xy * phi.cos(), r_xy * phi.sin(), z)
+}
+
 /// Maps a point of `[0,1)^3` to a uniformly distributed point in the unit ball.
 ///
 /// ```
@@ -32,9 +47,5 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 /// ```
 #[inline]
 pub fn uniform_ball(u: Vec3A) -> Vec3A {
-    let z = 1.0 - 2.0 * u.x;
-    let r_xy = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u.y;
-    let dir = Vec3A::new(r_xy * phi.cos(), r_xy * phi.sin(), z);
-    dir * u.z.cbrt()
+    uniform_sphere(Vec2::new(u.x, u.y)) * u.z.cbrt()
 }

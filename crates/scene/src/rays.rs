@@ -20,7 +20,7 @@ use std::io::{Read, Write};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 use raylume_camera::{Camera, CameraSample, Pinhole, View};
-use raylume_geometry::{Aabb, Ray, Vec2, Vec3A};
+use raylume_geometry::{Aabb, Ray, Vec2, Vec3A, sampling::uniform_sphere};
 
 /// Rays through the pixel centres of a `side x side` pinhole view, `side = round(sqrt(count))`,
 /// with the view's camera (its resolution replaced).
@@ -45,10 +45,8 @@ pub fn random_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<Ray> {
     let radius = (bounds.diagonal().length() * 0.5).max(1e-6) * 1.5;
     (0..count)
         .map(|_| {
-            let z = 1.0 - 2.0 * u();
-            let phi = std::f32::consts::TAU * u();
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let origin = centre + Vec3A::new(r * phi.cos(), r * phi.sin(), z) * radius;
+            let (a, b) = (u(), u());
+            let origin = centre + uniform_sphere(Vec2::new(a, b)) * radius;
             let target = bounds.min + bounds.diagonal() * Vec3A::new(u(), u(), u());
             let dir = (target - origin).normalize_or(Vec3A::Z);
             Ray::new(origin, dir)
