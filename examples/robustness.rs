@@ -242,15 +242,7 @@ fn main() {
             let o = up * (radius + 100.0);
             let d = (-up + unit_vector(&mut r) * 0.3).normalize();
             let sphere = Sphere { center: Vec3A::ZERO, radius };
-            let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
-            let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
-            let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
-            let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
-            let disc = od * od - dd * (oo - (radius as f64).powi(2));
-            if disc < 0.0 {
-                continue;
-            }
-            let t_ref = (-od - disc.sqrt()) / dd;
+            let Some((t_ref, _)) = sphere_roots64(o, d, radius) else { continue };
             let unit = 2f64.powi(-24) * (o.length() as f64 + radius as f64);
             if let Some(t) = naive_sphere(&sphere, &Ray::new(o, d)) {
                 naive_err = naive_err.max((t as f64 - t_ref).abs() / unit);
@@ -386,11 +378,7 @@ fn main() {
             let o = unit_vector(&mut r) * radius * 0.999;
             let d = unit_vector(&mut r);
             let sphere = Sphere { center: Vec3A::ZERO, radius };
-            let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
-            let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
-            let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
-            let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
-            let t_ref = (-od + (od * od - dd * (oo - (radius as f64).powi(2))).sqrt()) / dd;
+            let t_ref = sphere_roots64(o, d, radius).expect("the origin is inside").1;
             let unit = 2f64.powi(-24) * (o.length() as f64 + radius as f64);
             let ray = Ray::new(o, d);
             naive_err =
@@ -526,4 +514,15 @@ fn main() {
     for row in rows {
         println!("| {} | {} | {} | {} |", row.case, row.setup, row.naive, row.raylume);
     }
+}
+
+/// The two roots `(near, far)` of a ray (origin `o`, direction `d`) with the sphere of radius `r`
+/// centred at the origin, in f64 from the f32 inputs; `None` if the ray misses it.
+fn sphere_roots64(o: Vec3A, d: Vec3A, r: f32) -> Option<(f64, f64)> {
+    let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
+    let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
+    let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
+    let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
+    let disc = od * od - dd * (oo - (r as f64).powi(2));
+    (disc >= 0.0).then(|| ((-od - disc.sqrt()) / dd, (-od + disc.sqrt()) / dd))
 }

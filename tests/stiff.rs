@@ -279,11 +279,7 @@ fn s3_origin_inside_a_huge_sphere() {
             let ray = Ray::new(o, d);
             let hit = sphere.intersect(&ray, Interval::POSITIVE).expect("the exit");
             assert!(!hit.front_face(&ray));
-            let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
-            let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
-            let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
-            let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
-            let t_ref = (-od + (od * od - dd * (oo - (radius as f64).powi(2))).sqrt()) / dd;
+            let t_ref = sphere_roots64(o, d, radius).expect("the origin is inside").1;
             assert!(
                 (hit.t as f64 - t_ref).abs() <= 8.0 * U * (o.length() as f64 + radius as f64),
                 "r={radius} frac={frac}: t {} vs {t_ref} (o {o:?}, d {d:?})",
@@ -605,15 +601,7 @@ fn s2_large_sphere_origin_near_surface() {
                 if cos < 0.1 || (h as f64) < bound {
                     continue;
                 }
-                let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
-                let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
-                let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
-                let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
-                let disc = od * od - dd * (oo - (radius as f64).powi(2));
-                if disc < 0.0 {
-                    continue;
-                }
-                let t_ref = (-od - disc.sqrt()) / dd;
+                let Some((t_ref, _)) = sphere_roots64(o, d, radius) else { continue };
                 let got = hit.expect("a ray aimed at a huge sphere below hits it").t as f64;
                 worst = worst.max((got - t_ref).abs() / (U * (o.length() as f64 + radius as f64)));
                 checked += 1;
@@ -1207,4 +1195,15 @@ fn o5_spheres_and_boxes_never_rehit_themselves() {
         assert_eq!(rehits, 0, "scale {scale}");
     }
     println!("O5: re-hits of spheres and boxes {}", report.join(", "));
+}
+
+/// The two roots `(near, far)` of a ray (origin `o`, direction `d`) with the sphere of radius `r`
+/// centred at the origin, in f64 from the f32 inputs; `None` if the ray misses it.
+fn sphere_roots64(o: Vec3A, d: Vec3A, r: f32) -> Option<(f64, f64)> {
+    let (o64, d64) = (o.to_array().map(f64::from), d.to_array().map(f64::from));
+    let od: f64 = (0..3).map(|a| o64[a] * d64[a]).sum();
+    let oo: f64 = (0..3).map(|a| o64[a] * o64[a]).sum();
+    let dd: f64 = (0..3).map(|a| d64[a] * d64[a]).sum();
+    let disc = od * od - dd * (oo - (r as f64).powi(2));
+    (disc >= 0.0).then(|| ((-od - disc.sqrt()) / dd, (-od + disc.sqrt()) / dd))
 }
