@@ -12,10 +12,12 @@
 
 mod primitive;
 mod shapes;
+mod watertight;
 
 pub use primitive::Primitive;
-use raylume_geometry::{Aabb, Interval, Ray, Vec2, Vec3A};
-pub use shapes::{intersect_moller_trumbore, intersect_watertight};
+use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec2, Vec3A};
+pub use shapes::intersect_moller_trumbore;
+pub use watertight::{ShearedRay, TriangleHit, intersect_watertight, watertight_decide};
 
 /// Where a ray meets a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,5 +67,12 @@ pub trait Intersect {
     #[inline]
     fn bounds_over(&self, _shutter: Interval) -> Aabb {
         self.bounds()
+    }
+
+    /// The shape as a triangle, if it is one: accelerators store triangles in their own layout and
+    /// test them with [`watertight_decide`], which gives the same answers as [`Intersect::intersect`].
+    #[inline]
+    fn as_triangle(&self) -> Option<Triangle> {
+        None
     }
 }

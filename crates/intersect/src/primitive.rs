@@ -51,6 +51,14 @@ impl Intersect for Primitive {
     fn bounds_over(&self, shutter: Interval) -> Aabb {
         dispatch!(self, s => s.bounds_over(shutter))
     }
+
+    #[inline]
+    fn as_triangle(&self) -> Option<Triangle> {
+        match self {
+            Primitive::Triangle(t) => Some(*t),
+            _ => None,
+        }
+    }
 }
 
 impl Primitive {

@@ -2,7 +2,7 @@
 
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec2, Vec3A, gamma};
 
-use crate::{Hit, Intersect};
+use crate::{Hit, Intersect, intersect_watertight};
 
 impl Intersect for Sphere {
     /// The careful quadratic of *Ray Tracing Gems* ch. 7: the discriminant is taken from the distance
@@ -72,111 +72,14 @@ impl Intersect for Triangle {
         intersect_watertight(self, ray, t_range)
     }
 
+    #[inline]
+    fn as_triangle(&self) -> Option<Triangle> {
+        Some(*self)
+    }
+
     fn bounds(&self) -> Aabb {
         Triangle::bounds(self)
     }
-}
-
-/// Ray/triangle intersection after Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection"
-/// (JCGT 2013): the vertices are moved into a frame where the ray runs along +z from the origin, and
-/// the 2D edge functions decide the hit. Each edge function depends only on its two endpoints, so a
-/// ray through a shared edge or vertex of a closed mesh hits at least one of the triangles sharing
-/// it and never passes between them; edge functions that round to zero are recomputed in f64.
-/// Degenerate (zero-area) triangles never report a hit, and no hit carries a NaN.
-///
-/// The hit point is rebuilt from the barycentrics, which bounds its error by the vertices' magnitude
-/// rather than the ray's travel.
-///
-/// ```
-/// use raylume_geometry::{Interval, Ray, Triangle, Vec3A};
-/// use raylume_intersect::intersect_watertight;
-/// let t = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
-/// // Exactly through the shared edge's midpoint of two triangles: the edge belongs to the triangle.
-/// let ray = Ray::new(Vec3A::new(0.5, 0.5, 1.0), -Vec3A::Z);
-/// assert!(intersect_watertight(&t, &ray, Interval::POSITIVE).is_some());
-/// ```
-#[inline]
-pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
-    let d = ray.dir;
-    let ad = d.abs();
-    // kz: the dimension where the direction is largest; kx, ky: the other two, keeping the winding.
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z { 0 } else { 2 }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
-    }
-    if d[kz] == 0.0 || !d[kz].is_finite() {
-        return None;
-    }
-    let sz = 1.0 / d[kz];
-    let sx = d[kx] * sz;
-    let sy = d[ky] * sz;
-    let a = tri.p[0] - ray.origin;
-    let b = tri.p[1] - ray.origin;
-    let c = tri.p[2] - ray.origin;
-    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
-    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
-    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
-    if u == 0.0 || v == 0.0 || w == 0.0 {
-        // On an edge within f32 rounding: decide it in f64, where these products are exact.
-        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
-        u = f(cx, by, cy, bx);
-        v = f(ax, cy, ay, cx);
-        w = f(bx, ay, by, ax);
-    }
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
-    let inv = 1.0 / det;
-    // t in f64 from the exact products: the same t whatever the order of the vertices.
-    let t = ((u as f64 * az as f64 + v as f64 * bz as f64 + w as f64 * cz as f64) / (u as f64 + v as f64 + w as f64))
-        as f32;
-    if !t_range.contains(t) {
-        return None;
-    }
-    // pbrt-v4's bound on the error of t: a hit closer than it may be the surface the ray left.
-    let max_zt = az.abs().max(bz.abs()).max(cz.abs());
-    let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
-    let max_yt = ay.abs().max(by.abs()).max(cy.abs());
-    let delta_z = gamma(3) * max_zt;
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
-    let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = u.abs().max(v.abs()).max(w.abs());
-    let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs();
-    if delta_t.is_nan() || t <= delta_t {
-        // Too close to call in f32: needles and tiny triangles far away have error bounds larger than
-        // their distance. Decide again in f64, whose bound is 2^29 times smaller; a ray leaving the
-        // surface (its origin offset past the f32 error box) is then behind it, exactly.
-        return watertight_f64(tri, ray, t_range);
-    }
-    // The hit is decided; its distance is refined on the plane through the vertices, in f64, where
-    // the differences and cross products of f32 coordinates are (nearly) exact. This keeps t at a few
-    // ulps even for large triangles seen at grazing angles, where the sheared coordinates lose it.
-    let t = plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t);
-    let (b0, b1, b2) = (u * inv, v * inv, w * inv);
-    let normal = tri.normal().normalize_or_zero();
-    if normal == Vec3A::ZERO || !normal.is_finite() {
-        return None;
-    }
-    let point = tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2;
-    let error = ((tri.p[0] * b0).abs() + (tri.p[1] * b1).abs() + (tri.p[2] * b2).abs()) * gamma(7);
-    Some(Hit { t, point, normal, uv: Vec2::new(b1, b2), error })
 }
 
 /// Möller–Trumbore ray/triangle intersection, the course's choice, kept for comparison: it is not
@@ -357,86 +260,4 @@ fn travel_error(ray: &Ray, t: f32, n: i32) -> Vec3A {
 fn sq64(v: Vec3A) -> f64 {
     let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
     x * x + y * y + z * z
-}
-
-/// The ray parameter where the ray meets the plane of the triangle's vertices, computed in f64.
-#[inline]
-fn plane_distance64(tri: &Triangle, ray: &Ray) -> Option<f32> {
-    let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-    let (o, d) = (
-        [ray.origin.x as f64, ray.origin.y as f64, ray.origin.z as f64],
-        [ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64],
-    );
-    let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-    let num = n[0] * (p[0][0] - o[0]) + n[1] * (p[0][1] - o[1]) + n[2] * (p[0][2] - o[2]);
-    let t = (num / den) as f32;
-    (den != 0.0 && t.is_finite()).then_some(t)
-}
-
-/// The watertight test carried out entirely in f64 (exact differences and products of f32 inputs),
-/// with pbrt-v4's t bound for f64 roundings: the fallback for hits too close to call in f32.
-#[cold]
-fn watertight_f64(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
-    let g = |n: f64| n * (f64::EPSILON * 0.5) / (1.0 - n * (f64::EPSILON * 0.5));
-    let d = ray.dir.to_array().map(f64::from);
-    let o = ray.origin.to_array().map(f64::from);
-    let ad = d.map(f64::abs);
-    let kz = if ad[0] > ad[1] {
-        if ad[0] > ad[2] { 0 } else { 2 }
-    } else if ad[1] > ad[2] {
-        1
-    } else {
-        2
-    };
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
-    }
-    if d[kz] == 0.0 {
-        return None;
-    }
-    let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-    let rel = |v: Vec3A| {
-        let p = v.to_array().map(f64::from);
-        let q = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
-        (q[kx] - sx * q[kz], q[ky] - sy * q[kz], sz * q[kz])
-    };
-    let (ax, ay, az) = rel(tri.p[0]);
-    let (bx, by, bz) = rel(tri.p[1]);
-    let (cx, cy, cz) = rel(tri.p[2]);
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let t = (u * az + v * bz + w * cz) / det;
-    let (max_zt, max_xt, max_yt) = (
-        az.abs().max(bz.abs()).max(cz.abs()),
-        ax.abs().max(bx.abs()).max(cx.abs()),
-        ay.abs().max(by.abs()).max(cy.abs()),
-    );
-    let (delta_z, delta_x, delta_y) = (g(3.0) * max_zt, g(5.0) * (max_xt + max_zt), g(5.0) * (max_yt + max_zt));
-    let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = u.abs().max(v.abs()).max(w.abs());
-    let delta_t = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
-    if t.is_nan() || t <= delta_t || !t_range.contains(t as f32) || (t as f32) <= 0.0 {
-        return None;
-    }
-    let (b0, b1, b2) = ((u / det) as f32, (v / det) as f32, (w / det) as f32);
-    let normal = tri.normal().normalize_or_zero();
-    if normal == Vec3A::ZERO || !normal.is_finite() {
-        return None;
-    }
-    let point = tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2;
-    let error = ((tri.p[0] * b0).abs() + (tri.p[1] * b1).abs() + (tri.p[2] * b2).abs()) * gamma(7);
-    Some(Hit { t: t as f32, point, normal, uv: Vec2::new(b1, b2), error })
 }

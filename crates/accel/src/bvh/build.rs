@@ -1,0 +1,248 @@
+//! The binary build: binned SAH (or the course's midpoint splits) into a tree of 32-byte nodes,
+//! which [`super`] collapses into its wide nodes.
+
+use raylume_geometry::{Aabb, Vec3A};
+
+/// Number of SAH bins per axis.
+const BINS: usize = 12;
+/// Cost of visiting a node relative to one leaf block test.
+const TRAVERSAL_COST: f32 = 1.0;
+
+/// How a [`Bvh`](super::Bvh) chooses its splits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhBuild {
+    /// Binned surface area heuristic (12 bins on the largest centroid axis); the SAH also decides
+    /// when to stop (leaves of up to 4 primitives).
+    #[default]
+    Sah,
+    /// The course's build: split the node's largest axis at its midpoint, fall back to the mean of the
+    /// centroids when one side would be empty, leaves of at most 2 primitives.
+    Midpoint,
+}
+
+/// One node: its bounds and either the range of its primitives (leaf) or the index of its first child
+/// (inner node; the second child is next to it).
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub(super) struct Node {
+    pub min: [f32; 3],
+    /// Leaf: first primitive. Inner: index of the first child (the second follows it).
+    pub offset: u32,
+    pub max: [f32; 3],
+    /// Leaf: number of primitives (> 0). Inner: 0.
+    pub count: u16,
+    /// Inner: the split axis.
+    pub axis: u16,
+}
+
+const _: () = assert!(std::mem::size_of::<Node>() == 32);
+
+impl Node {
+    #[inline]
+    pub fn aabb(&self) -> Aabb {
+        Aabb::new(Vec3A::from_array(self.min), Vec3A::from_array(self.max))
+    }
+}
+
+/// What the build needs of one primitive.
+pub(super) struct BuildItem {
+    pub bounds: Aabb,
+    pub centroid: Vec3A,
+    pub index: u32,
+}
+
+/// A binary tree over build items, which are left in leaf order.
+pub(super) struct BinaryTree {
+    pub nodes: Vec<Node>,
+}
+
+/// Builds the binary tree over `items` (reordering them into leaf order). Leaves hold at most
+/// `max_leaf` items; the SAH counts a leaf's cost in blocks of `block` items (a leaf of triangles is
+/// tested four at a time).
+pub(super) fn build_binary(items: &mut [BuildItem], method: BvhBuild, block: usize, max_leaf: usize) -> BinaryTree {
+    let mut nodes = Vec::with_capacity((2 * items.len()).max(1));
+    if !items.is_empty() {
+        nodes.push(PLACEHOLDER);
+        let params = Params { method, block, max_leaf };
+        build(items, &mut nodes, 0, 0, 0, &params);
+    }
+    BinaryTree { nodes }
+}
+
+struct Params {
+    method: BvhBuild,
+    block: usize,
+    max_leaf: usize,
+}
+
+/// Depth past which splits are object medians, so the depth stays bounded (below 70) for any input.
+const MEDIAN_DEPTH: usize = 36;
+
+/// Fills the preallocated node `me` from `items` (which start at primitive `first`): a leaf, or an
+/// inner node whose two children are allocated next to each other and built recursively.
+fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize, depth: usize, params: &Params) {
+    let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
+    nodes[me] = Node {
+        min: bounds.min.to_array(),
+        offset: first as u32,
+        max: bounds.max.to_array(),
+        count: items.len() as u16,
+        axis: 0,
+    };
+    let n = items.len();
+    if n <= 1 {
+        return;
+    }
+    let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
+    if params.method == BvhBuild::Midpoint {
+        if n <= MIDPOINT_LEAF {
+            return;
+        }
+        let (axis, mid) = if depth < MEDIAN_DEPTH {
+            midpoint_split(items, &bounds, &cb)
+        } else {
+            let axis = cb.longest_axis();
+            items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+            (axis, n / 2)
+        };
+        return finish_inner(items, nodes, me, first, depth, params, axis, mid);
+    }
+    let axis = cb.longest_axis();
+    let extent = cb.diagonal()[axis];
+    let mid = if extent <= 0.0 {
+        // All centroids coincide: split by count if the leaf would be too large.
+        if n <= params.max_leaf {
+            return;
+        }
+        n / 2
+    } else {
+        let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, axis, extent, params) } else { None };
+        match sah {
+            Some(mid) => mid,
+            None if n <= params.max_leaf => return,
+            None => {
+                items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+                n / 2
+            }
+        }
+    };
+    finish_inner(items, nodes, me, first, depth, params, axis, mid)
+}
+
+/// Builds both children of node `me` from `items` split at `mid`, side by side at the end of `nodes`,
+/// and makes `me` an inner node pointing at the first.
+#[allow(clippy::too_many_arguments)]
+fn finish_inner(
+    items: &mut [BuildItem],
+    nodes: &mut Vec<Node>,
+    me: usize,
+    first: usize,
+    depth: usize,
+    params: &Params,
+    axis: usize,
+    mid: usize,
+) {
+    let left = nodes.len();
+    nodes.extend([PLACEHOLDER; 2]);
+    let (l, r) = items.split_at_mut(mid);
+    build(l, nodes, left, first, depth + 1, params);
+    build(r, nodes, left + 1, first + mid, depth + 1, params);
+    let node = &mut nodes[me];
+    node.offset = left as u32;
+    node.count = 0;
+    node.axis = axis as u16;
+}
+
+pub(super) const PLACEHOLDER: Node = Node { min: [0.0; 3], offset: 0, max: [0.0; 3], count: 0, axis: 0 };
+
+/// Largest leaf of the course's build.
+const MIDPOINT_LEAF: usize = 2;
+
+/// The course's split: the midpoint of the node's largest axis; if every centroid falls on one side,
+/// the mean of the centroids on that axis; if they all coincide, half of the primitives each side.
+fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> (usize, usize) {
+    let n = items.len();
+    let axis = bounds.longest_axis();
+    let partition = |items: &mut [BuildItem], at: f32| {
+        let mut mid = 0;
+        for i in 0..items.len() {
+            if items[i].centroid[axis] < at {
+                items.swap(i, mid);
+                mid += 1;
+            }
+        }
+        mid
+    };
+    let mut mid = partition(items, bounds.centroid()[axis]);
+    if mid == 0 || mid == n {
+        let mean = items.iter().map(|it| it.centroid[axis]).sum::<f32>() / n as f32;
+        mid = partition(items, mean);
+    }
+    if mid == 0 || mid == n || cb.diagonal().max_element() <= 0.0 {
+        // All centroids coincide: no position separates them.
+        mid = n / 2;
+    }
+    (axis, mid)
+}
+
+/// Partitions `items` at the cheapest SAH bin boundary on `axis`; `None` if a leaf is cheaper.
+fn sah_split(
+    items: &mut [BuildItem],
+    bounds: &Aabb,
+    cb: &Aabb,
+    axis: usize,
+    extent: f32,
+    params: &Params,
+) -> Option<usize> {
+    let blocks = |n: usize| n.div_ceil(params.block) as f32;
+    let n = items.len();
+    let lo = cb.min[axis];
+    let scale = BINS as f32 / extent;
+    let bin_of = |c: Vec3A| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
+    let mut bin_bounds = [Aabb::EMPTY; BINS];
+    let mut bin_count = [0usize; BINS];
+    for it in items.iter() {
+        let b = bin_of(it.centroid);
+        bin_bounds[b] = bin_bounds[b].union(it.bounds);
+        bin_count[b] += 1;
+    }
+    // Sweep from the right to get the area and count right of each boundary.
+    let mut right_area = [0.0f32; BINS];
+    let mut right_count = [0usize; BINS];
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    for i in (1..BINS).rev() {
+        acc = acc.union(bin_bounds[i]);
+        cnt += bin_count[i];
+        right_area[i] = acc.surface_area();
+        right_count[i] = cnt;
+    }
+    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+    let mut best = (f32::INFINITY, 0);
+    for i in 1..BINS {
+        acc = acc.union(bin_bounds[i - 1]);
+        cnt += bin_count[i - 1];
+        if cnt == 0 || right_count[i] == 0 {
+            continue;
+        }
+        let cost = acc.surface_area() * blocks(cnt) + right_area[i] * blocks(right_count[i]);
+        if cost < best.0 {
+            best = (cost, i);
+        }
+    }
+    if best.1 == 0 {
+        return None;
+    }
+    let split_cost = TRAVERSAL_COST + best.0 / bounds.surface_area().max(f32::MIN_POSITIVE);
+    if n <= params.max_leaf && split_cost >= blocks(n) {
+        return None;
+    }
+    // Partition in place: items in bins below the boundary first.
+    let mut mid = 0;
+    for i in 0..n {
+        if bin_of(items[i].centroid) < best.1 {
+            items.swap(i, mid);
+            mid += 1;
+        }
+    }
+    (mid > 0 && mid < n).then_some(mid)
+}

@@ -1,0 +1,232 @@
+//! A bounding volume hierarchy: built binary with binned SAH (or the course's midpoint splits), then
+//! collapsed into nodes of four children whose boxes a ray tests together. Triangles live in their own
+//! tree, in packets of four laid out for the watertight test; other bounded shapes in a second tree;
+//! unbounded ones (planes) outside both.
+
+mod build;
+mod triangles;
+mod wide;
+
+pub use build::BvhBuild;
+use build::{BuildItem, build_binary};
+use raylume_geometry::{Aabb, Interval, Ray, Triangle};
+use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
+use triangles::{Packet, candidates};
+use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+
+use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
+
+/// Largest leaf of primitives other than triangles.
+const MAX_LEAF: usize = 4;
+
+/// A BVH over primitives.
+///
+/// ```
+/// use raylume_accel::{Accelerator, Bvh};
+/// use raylume_geometry::{Interval, Ray, Sphere, Triangle, Vec3A};
+/// use raylume_intersect::Primitive;
+/// let prims = vec![
+///     Primitive::Triangle(Triangle::new(Vec3A::new(-1.0, -1.0, 5.0), Vec3A::new(1.0, -1.0, 5.0), Vec3A::new(0.0, 1.0, 5.0))),
+///     Primitive::Sphere(Sphere { center: Vec3A::new(0.0, 0.0, 9.0), radius: 1.0 }),
+/// ];
+/// let bvh = Bvh::new(prims, Interval::new(0.0, 0.0));
+/// let hit = bvh.closest_hit(&Ray::new(Vec3A::ZERO, Vec3A::Z), Interval::POSITIVE).unwrap();
+/// assert_eq!((hit.primitive, hit.hit.t), (0, 5.0));
+/// ```
+#[derive(Clone, Debug)]
+pub struct Bvh<P> {
+    triangles: Option<(WideTree, Vec<Packet>)>,
+    others: Option<(WideTree, Vec<P>, Vec<u32>)>,
+    /// Unbounded primitives and their input indices.
+    unbounded: Vec<(P, u32)>,
+    bounds: Aabb,
+}
+
+impl<P: Intersect + Clone> Bvh<P> {
+    /// Builds the hierarchy over `prims` with binned SAH; moving primitives are bounded over all of
+    /// `shutter`.
+    pub fn new(prims: Vec<P>, shutter: Interval) -> Self {
+        Self::with_build(prims, shutter, BvhBuild::Sah)
+    }
+
+    /// Builds the hierarchy with the given method.
+    ///
+    /// # Panics
+    /// With more than 2^28 bounded primitives of one kind (triangles, or the others).
+    pub fn with_build(prims: Vec<P>, shutter: Interval, method: BvhBuild) -> Self {
+        let mut tri_items = Vec::new();
+        let mut tris = Vec::new();
+        let mut items = Vec::new();
+        let mut unbounded = Vec::new();
+        for (i, p) in prims.iter().enumerate() {
+            let b = p.bounds_over(shutter);
+            if b.is_finite() && !b.is_empty() {
+                if let Some(t) = p.as_triangle() {
+                    tri_items.push(BuildItem { bounds: b, centroid: b.centroid(), index: tris.len() as u32 });
+                    tris.push((t, i as u32));
+                } else {
+                    items.push(BuildItem { bounds: b, centroid: b.centroid(), index: i as u32 });
+                }
+            } else if !b.is_finite() {
+                unbounded.push((p.clone(), i as u32));
+            }
+            // Finite but empty bounds: nothing can be hit.
+        }
+        assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
+        let triangles = (!tri_items.is_empty()).then(|| {
+            let bin = build_binary(&mut tri_items, method, triangles::LANES, triangles::LANES);
+            let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
+            let tree = WideTree::collapse(&bin.nodes, |first, count| {
+                let lanes: Vec<(Triangle, u32)> =
+                    tri_items[first..first + count].iter().map(|it| tris[it.index as usize]).collect();
+                packets.push(Packet::new(&lanes));
+                leaf_ref(packets.len() - 1, count)
+            });
+            (tree, packets)
+        });
+        let others = (!items.is_empty()).then(|| {
+            let bin = build_binary(&mut items, method, 1, MAX_LEAF);
+            let tree = WideTree::collapse(&bin.nodes, leaf_ref);
+            let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
+            let prims = ids.iter().map(|&i| prims[i as usize].clone()).collect();
+            (tree, prims, ids)
+        });
+        let bounds = triangles
+            .iter()
+            .map(|(t, _)| t.bounds())
+            .chain(others.iter().map(|(t, _, _)| t.bounds()))
+            .fold(Aabb::EMPTY, Aabb::union);
+        Self { triangles, others, unbounded, bounds }
+    }
+}
+
+impl<P> Bvh<P> {
+    /// Number of nodes in the trees.
+    pub fn node_count(&self) -> usize {
+        self.triangles.as_ref().map_or(0, |(t, _)| t.node_count())
+            + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+    }
+}
+
+impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        if !ray.is_valid() {
+            return None;
+        }
+        let mut best = None;
+        for (p, id) in &self.unbounded {
+            tally.tested();
+            if let Some(hit) = p.intersect(ray, t_range) {
+                t_range = t_range.with_max(hit.t);
+                best = Some(PrimitiveHit { hit, primitive: *id });
+            }
+        }
+        let box_ray = BoxRay::new(ray);
+        if let Some((tree, prims, ids)) = &self.others {
+            tree.closest(&box_ray, t_range.min, t_range.max, |leaf, t_max| {
+                let (first, count) = leaf_range(leaf);
+                let mut range = t_range.with_max(t_max);
+                for i in first..first + count {
+                    tally.tested();
+                    if let Some(hit) = prims[i].intersect(ray, range) {
+                        range = range.with_max(hit.t);
+                        best = Some(PrimitiveHit { hit, primitive: ids[i] });
+                    }
+                }
+                range.max
+            });
+            if let Some(b) = &best {
+                t_range = t_range.with_max(b.hit.t);
+            }
+        }
+        if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
+            let mut found: Option<(TriangleHit, u32, u32)> = None;
+            tree.closest(&box_ray, t_range.min, t_range.max, |leaf, t_max| {
+                let (first, count) = leaf_range(leaf);
+                let packet = &packets[first];
+                for _ in 0..count {
+                    tally.tested();
+                }
+                let mut range = t_range.with_max(t_max);
+                let mut lanes = candidates(packet, &sheared, count);
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros();
+                    lanes &= lanes - 1;
+                    if let Some(h) = raylume_intersect::watertight_decide(&packet.triangle(lane), &sheared, range) {
+                        range = range.with_max(h.t);
+                        found = Some((h, first as u32, lane));
+                    }
+                }
+                range.max
+            });
+            if let Some((h, packet, lane)) = found {
+                let packet = &packets[packet as usize];
+                best = Some(PrimitiveHit { hit: h.hit(&packet.triangle(lane)), primitive: packet.id(lane) });
+            }
+        }
+        best
+    }
+
+    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        if !ray.is_valid() || t_max.is_nan() {
+            return false;
+        }
+        if self.unbounded.iter().any(|(p, _)| {
+            tally.tested();
+            p.occluded(ray, t_max)
+        }) {
+            return true;
+        }
+        let box_ray = BoxRay::new(ray);
+        if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
+            let range = Interval::new(0.0, t_max);
+            let hit = tree.any(&box_ray, t_max, |leaf| {
+                let (first, count) = leaf_range(leaf);
+                let packet = &packets[first];
+                let mut lanes = candidates(packet, &sheared, count);
+                for _ in 0..count {
+                    tally.tested();
+                }
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros();
+                    lanes &= lanes - 1;
+                    if raylume_intersect::watertight_decide(&packet.triangle(lane), &sheared, range).is_some() {
+                        return true;
+                    }
+                }
+                false
+            });
+            if hit {
+                return true;
+            }
+        }
+        if let Some((tree, prims, _)) = &self.others {
+            return tree.any(&box_ray, t_max, |leaf| {
+                let (first, count) = leaf_range(leaf);
+                prims[first..first + count].iter().any(|p| {
+                    tally.tested();
+                    p.occluded(ray, t_max)
+                })
+            });
+        }
+        false
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    fn stats(&self) -> AccelStats {
+        let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
+        let mut primitives = self.unbounded.len();
+        if let Some((tree, packets)) = &self.triangles {
+            bytes += tree.bytes() + std::mem::size_of_val(packets.as_slice());
+            primitives += packets.iter().map(Packet::len).sum::<usize>();
+        }
+        if let Some((tree, prims, ids)) = &self.others {
+            bytes += tree.bytes() + std::mem::size_of_val(prims.as_slice()) + std::mem::size_of_val(ids.as_slice());
+            primitives += prims.len();
+        }
+        AccelStats { nodes: self.node_count(), bytes, primitives }
+    }
+}

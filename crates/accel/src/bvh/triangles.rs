@@ -1,0 +1,145 @@
+//! Triangles in packets of four, laid out for the watertight test: one ray finds, for four triangles
+//! at once, those whose edge functions do not rule it out; [`watertight_decide`] then decides those
+//! few exactly as the scalar test does.
+//!
+//! [`watertight_decide`]: raylume_intersect::watertight_decide
+
+use raylume_geometry::{Triangle, Vec3A};
+use raylume_intersect::ShearedRay;
+
+/// Triangles per packet.
+pub(super) const LANES: usize = 4;
+/// The id of an unused lane.
+const NO_ID: u32 = u32::MAX;
+
+/// Up to four triangles, coordinate by coordinate: `v[vertex][axis][lane]`, and their input indices.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(super) struct Packet {
+    v: [[[f32; LANES]; 3]; 3],
+    id: [u32; LANES],
+}
+
+const _: () = assert!(std::mem::size_of::<Packet>() == 160);
+
+impl Packet {
+    /// A packet of 1 to 4 triangles with their ids; unused lanes repeat the first triangle.
+    pub fn new(tris: &[(Triangle, u32)]) -> Self {
+        let mut p = Self { v: [[[0.0; LANES]; 3]; 3], id: [NO_ID; LANES] };
+        for lane in 0..LANES {
+            let (t, id) = tris.get(lane).copied().unwrap_or((tris[0].0, NO_ID));
+            for (k, vertex) in t.p.iter().enumerate() {
+                for a in 0..3 {
+                    p.v[k][a][lane] = vertex[a];
+                }
+            }
+            p.id[lane] = id;
+        }
+        p
+    }
+
+    /// The triangle in `lane`, with the very coordinates it was built from.
+    #[inline]
+    pub fn triangle(&self, lane: u32) -> Triangle {
+        let l = lane as usize;
+        let vertex = |k: usize| Vec3A::new(self.v[k][0][l], self.v[k][1][l], self.v[k][2][l]);
+        Triangle::new(vertex(0), vertex(1), vertex(2))
+    }
+
+    /// The input index of the triangle in `lane`.
+    #[inline]
+    pub fn id(&self, lane: u32) -> u32 {
+        self.id[lane as usize]
+    }
+
+    /// Number of triangles held.
+    pub fn len(&self) -> usize {
+        self.id.iter().filter(|&&id| id != NO_ID).count()
+    }
+}
+
+/// The mask of the first `count` lanes that the watertight test may accept: it rejects a triangle
+/// when its three edge functions are non-zero and of mixed signs, and these are computed with the very
+/// operations of [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the
+/// scalar test rejects too.
+#[inline(always)]
+pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
+    let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
+    let [sx, sy, _] = ray.shear;
+    let (ox, oy, oz) = (ray.origin[kx], ray.origin[ky], ray.origin[kz]);
+    let mut x = [[0.0f32; LANES]; 3];
+    let mut y = [[0.0f32; LANES]; 3];
+    for k in 0..3 {
+        let (px, py, pz) = (&p.v[k][kx], &p.v[k][ky], &p.v[k][kz]);
+        for l in 0..LANES {
+            let az = pz[l] - oz;
+            x[k][l] = (px[l] - ox) - sx * az;
+            y[k][l] = (py[l] - oy) - sy * az;
+        }
+    }
+    let mut mask = 0u32;
+    for l in 0..LANES {
+        let (ax, ay, bx, by, cx, cy) = (x[0][l], y[0][l], x[1][l], y[1][l], x[2][l], y[2][l]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let negative = u < 0.0 || v < 0.0 || w < 0.0;
+        let positive = u > 0.0 || v > 0.0 || w > 0.0;
+        let zero = u == 0.0 || v == 0.0 || w == 0.0;
+        let rejected = negative & positive & !zero;
+        mask |= (!rejected as u32) << l;
+    }
+    mask & ((1 << count) - 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+    use raylume_geometry::{Interval, Ray};
+    use raylume_intersect::watertight_decide;
+
+    use super::*;
+
+    fn arb_point() -> impl Strategy<Value = Vec3A> {
+        // Small integers make shared vertices, axis-parallel edges and exact zeros common.
+        prop_oneof![
+            prop::array::uniform3(-3i8..=3).prop_map(|a| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32)),
+            prop::array::uniform3(-10.0f32..10.0).prop_map(Vec3A::from_array),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The packet filter never leaves out a triangle the scalar watertight test accepts.
+        #[test]
+        fn candidates_keep_every_hit(
+            verts in prop::collection::vec(prop::array::uniform3(arb_point()), 1..=LANES),
+            o in arb_point(),
+            target in arb_point(),
+            on_edge in prop::option::of((0usize..3, prop_oneof![Just(0.0f32), 0.0f32..1.0])),
+        ) {
+            // Half the rays aim at a vertex or a point of an edge of the first triangle, where edge
+            // functions round to zero or to either sign.
+            let target = match on_edge {
+                Some((e, s)) => verts[0][e] + (verts[0][(e + 1) % 3] - verts[0][e]) * s,
+                None => target,
+            };
+            let dir = target - o;
+            prop_assume!(dir != Vec3A::ZERO);
+            let ray = Ray::new(o, dir);
+            let Some(sheared) = ShearedRay::new(&ray) else { return Ok(()) };
+            let tris: Vec<(Triangle, u32)> =
+                verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), i as u32)).collect();
+            let packet = Packet::new(&tris);
+            let mask = candidates(&packet, &sheared, tris.len());
+            for (lane, (t, id)) in tris.iter().enumerate() {
+                prop_assert_eq!(packet.triangle(lane as u32), *t);
+                prop_assert_eq!(packet.id(lane as u32), *id);
+                let accepted = watertight_decide(t, &sheared, Interval::new(f32::MIN, f32::MAX)).is_some();
+                prop_assert!(!accepted || mask & (1 << lane) != 0, "lane {} left out", lane);
+            }
+            prop_assert_eq!(mask >> tris.len(), 0);
+            prop_assert_eq!(packet.len(), tris.len());
+        }
+    }
+}

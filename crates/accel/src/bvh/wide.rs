@@ -1,0 +1,262 @@
+//! The wide tree: nodes of four children whose boxes a ray tests together, collapsed from the binary
+//! build, and the ordered traversal shared by every kind of leaf.
+
+use raylume_geometry::{Aabb, Ray};
+
+use super::build::Node;
+
+/// Children per node.
+pub(super) const WIDTH: usize = 4;
+/// A child reference with this bit set is a leaf: `LEAF | (count - 1) << COUNT_SHIFT | first`.
+pub(super) const LEAF: u32 = 1 << 31;
+const COUNT_SHIFT: u32 = 28;
+/// Largest `first` a leaf reference can hold.
+pub(super) const MAX_FIRST: u32 = (1 << COUNT_SHIFT) - 1;
+/// An unused child slot (its box is empty, so no ray reaches it).
+const EMPTY: u32 = u32::MAX;
+/// Traversal stack entries: three per level of a tree at most 70 levels deep.
+const STACK: usize = 256;
+
+/// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
+const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
+
+/// One node: the boxes of its four children, stored by plane (`bounds[0..3]` the minima along x, y,
+/// z, `bounds[3..6]` the maxima, one lane per child) so that one ray tests all four together.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(super) struct WideNode {
+    bounds: [[f32; WIDTH]; 6],
+    child: [u32; WIDTH],
+}
+
+const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+
+const EMPTY_NODE: WideNode = WideNode {
+    bounds: [
+        [f32::INFINITY; WIDTH],
+        [f32::INFINITY; WIDTH],
+        [f32::INFINITY; WIDTH],
+        [f32::NEG_INFINITY; WIDTH],
+        [f32::NEG_INFINITY; WIDTH],
+        [f32::NEG_INFINITY; WIDTH],
+    ],
+    child: [EMPTY; WIDTH],
+};
+
+/// A leaf reference's first item and count.
+#[inline(always)]
+pub(super) fn leaf_range(r: u32) -> (usize, usize) {
+    ((r & MAX_FIRST) as usize, ((r >> COUNT_SHIFT) & 7) as usize + 1)
+}
+
+/// A leaf reference; `count` is 1..=8 and `first` at most [`MAX_FIRST`].
+#[inline]
+pub(super) fn leaf_ref(first: usize, count: usize) -> u32 {
+    debug_assert!((1..=8).contains(&count) && first <= MAX_FIRST as usize);
+    LEAF | ((count as u32 - 1) << COUNT_SHIFT) | first as u32
+}
+
+/// A ray prepared for box tests: per axis, which plane is entered first and the reciprocal
+/// direction for each end.
+///
+/// The test is conservative, like [`Aabb::hit_range`]: a direction component that is zero or
+/// subnormal (the ray parallel to a slab) gives no constraint when the origin lies in the slab, faces
+/// included, and a miss otherwise; the far end of each slab is widened by pbrt's `1 + 2 gamma(3)`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BoxRay {
+    origin: [f32; 3],
+    inv_near: [f32; 3],
+    inv_far: [f32; 3],
+    negative: [bool; 3],
+}
+
+impl BoxRay {
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> Self {
+        let mut r = Self { origin: ray.origin.to_array(), inv_near: [0.0; 3], inv_far: [0.0; 3], negative: [false; 3] };
+        for a in 0..3 {
+            let d = ray.dir[a];
+            if d.abs() < f32::MIN_POSITIVE {
+                // Parallel: (min - o) * inf is +inf (a miss) when the origin is below the slab, and
+                // (max - o) * inf is -inf when above; on a face the product is NaN, which the
+                // comparisons of `intersect` ignore.
+                r.inv_near[a] = f32::INFINITY;
+                r.inv_far[a] = f32::INFINITY;
+            } else {
+                let inv = 1.0 / d;
+                r.inv_near[a] = inv;
+                r.inv_far[a] = inv * WIDEN;
+                r.negative[a] = d < 0.0;
+            }
+        }
+        r
+    }
+
+    /// The entry distances of the four children and the mask of those the ray meets within
+    /// `[t_min, t_max]`.
+    #[inline(always)]
+    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
+        let mut near = [t_min; WIDTH];
+        let mut far = [t_max; WIDTH];
+        for a in 0..3 {
+            let (lo, hi) = if self.negative[a] {
+                (&node.bounds[a + 3], &node.bounds[a])
+            } else {
+                (&node.bounds[a], &node.bounds[a + 3])
+            };
+            let o = self.origin[a];
+            let (inv_n, inv_f) = (self.inv_near[a], self.inv_far[a]);
+            for i in 0..WIDTH {
+                let tn = (lo[i] - o) * inv_n;
+                let tf = (hi[i] - o) * inv_f;
+                // Written so that a NaN leaves the bound as it was (maxps/minps keep the second operand).
+                near[i] = if tn > near[i] { tn } else { near[i] };
+                far[i] = if tf < far[i] { tf } else { far[i] };
+            }
+        }
+        let mut mask = 0;
+        for i in 0..WIDTH {
+            mask |= ((near[i] <= far[i]) as u32) << i;
+        }
+        (near, mask)
+    }
+}
+
+/// A wide tree: nodes and the reference of the root (an inner node or a single leaf).
+#[derive(Clone, Debug)]
+pub(super) struct WideTree {
+    nodes: Vec<WideNode>,
+    root: u32,
+    bounds: Aabb,
+}
+
+impl WideTree {
+    /// Collapses the binary tree `bin` (non-empty): each wide node takes the binary node's children
+    /// and opens the largest inner ones until it has four. `leaf` turns a binary leaf's item range
+    /// into a leaf reference.
+    pub fn collapse(bin: &[Node], mut leaf: impl FnMut(usize, usize) -> u32) -> Self {
+        let mut nodes = Vec::with_capacity(bin.len() / 2 + 1);
+        let root = collapse_node(bin, 0, &mut nodes, &mut leaf);
+        Self { nodes, root, bounds: bin[0].aabb() }
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice())
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
+    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`.
+    #[inline(always)]
+    pub fn closest(&self, ray: &BoxRay, t_min: f32, mut t_max: f32, mut leaf: impl FnMut(u32, f32) -> f32) {
+        let mut stack = [(0u32, 0.0f32); STACK];
+        let mut sp = 0;
+        let mut cur = self.root;
+        loop {
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let (near, mut mask) = ray.intersect(node, t_min, t_max);
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        cur = node.child[first];
+                        continue;
+                    }
+                    // Two or more children: sort them by entry distance, push all but the nearest
+                    // (farthest first) and go on with the nearest.
+                    let mut hits = [(near[first], node.child[first]); WIDTH];
+                    let mut n = 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let mut j = n;
+                        while j > 0 && hits[j - 1].0 > near[i] {
+                            hits[j] = hits[j - 1];
+                            j -= 1;
+                        }
+                        hits[j] = (near[i], node.child[i]);
+                        n += 1;
+                    }
+                    for k in (1..n).rev() {
+                        stack[sp] = (hits[k].1, hits[k].0);
+                        sp += 1;
+                    }
+                    cur = hits[0].1;
+                    continue;
+                }
+            } else {
+                t_max = leaf(cur, t_max);
+            }
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let (c, d) = stack[sp];
+                if d <= t_max {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether any leaf the ray meets within `[0, t_max]` reports a hit (`leaf` returns `true`); the
+    /// nearest boxes are visited first, as shadow rays towards closed meshes meet them first.
+    #[inline(always)]
+    pub fn any(&self, ray: &BoxRay, t_max: f32, mut leaf: impl FnMut(u32) -> bool) -> bool {
+        let mut hit = false;
+        self.closest(ray, 0.0, t_max, |r, t| {
+            if leaf(r) {
+                hit = true;
+                f32::NEG_INFINITY
+            } else {
+                t
+            }
+        });
+        hit
+    }
+}
+
+fn collapse_node(bin: &[Node], b: usize, out: &mut Vec<WideNode>, leaf: &mut impl FnMut(usize, usize) -> u32) -> u32 {
+    let node = &bin[b];
+    if node.count > 0 {
+        return leaf(node.offset as usize, node.count as usize);
+    }
+    let mut children = [0usize; WIDTH];
+    children[0] = node.offset as usize;
+    children[1] = node.offset as usize + 1;
+    let mut n = 2;
+    while n < WIDTH {
+        // Open the inner child with the largest surface area.
+        let largest = (0..n)
+            .filter(|&i| bin[children[i]].count == 0)
+            .max_by(|&i, &j| bin[children[i]].aabb().surface_area().total_cmp(&bin[children[j]].aabb().surface_area()));
+        let Some(i) = largest else { break };
+        let c = children[i];
+        children[i] = bin[c].offset as usize;
+        children[n] = bin[c].offset as usize + 1;
+        n += 1;
+    }
+    let me = out.len();
+    out.push(EMPTY_NODE);
+    let mut wide = EMPTY_NODE;
+    for (slot, &c) in children[..n].iter().enumerate() {
+        let b = &bin[c];
+        for a in 0..3 {
+            wide.bounds[a][slot] = b.min[a];
+            wide.bounds[a + 3][slot] = b.max[a];
+        }
+        wide.child[slot] = collapse_node(bin, c, out, leaf);
+    }
+    out[me] = wide;
+    me as u32
+}

@@ -1,0 +1,231 @@
+//! raylume's BVH against obvhs 0.4's CWBVH (medium build) on the same triangles and the same rays, in
+//! one criterion run: build time, closest-hit and occlusion throughput for primary and incoherent rays
+//! on the shared bunny meshes, single-threaded. After the measurements it prints the table of medians
+//! and ratios that docs/PERFORMANCE.md carries, and the memory and agreement figures.
+//!
+//! `cargo bench -p raylume-compare` (all meshes; a criterion filter such as `-- bunny/` picks some).
+//! `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets for a quick look.
+
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput};
+use glam::Vec3A;
+use obvhs::cwbvh::{CwBvh, builder::build_cwbvh_from_tris};
+use obvhs::ray::{Ray as ORay, RayHit};
+use obvhs::rt_triangle::RtTriangle;
+use obvhs::{BvhBuildParams, triangle::Triangle as OTriangle};
+use raylume_accel::{Accelerator, Bvh};
+use raylume_compare::{Workload, shared_meshes};
+use raylume_geometry::{Interval, Ray};
+use raylume_intersect::Primitive;
+
+const MESHES: [&str; 3] = ["bunny", "bunny_loop2", "bunny_loop3"];
+
+/// obvhs's structure with its triangles laid out in leaf order (its fastest documented layout).
+struct Obvhs {
+    bvh: CwBvh,
+    tris: Vec<RtTriangle>,
+}
+
+impl Obvhs {
+    fn build(tris: &[OTriangle]) -> Self {
+        let bvh = build_cwbvh_from_tris(tris, BvhBuildParams::medium_build(), &mut Duration::default());
+        let tris = bvh.primitive_indices.iter().map(|&i| RtTriangle::from(&tris[i as usize])).collect();
+        Self { bvh, tris }
+    }
+
+    fn closest(&self, ray: &ORay) -> Option<(f32, u32)> {
+        let mut hit = RayHit::none();
+        self.bvh
+            .ray_traverse(*ray, &mut hit, |r, id| self.tris[id].intersect(r))
+            .then(|| (hit.t, self.bvh.primitive_indices[hit.primitive_id as usize]))
+    }
+
+    fn occluded(&self, ray: &ORay) -> bool {
+        !self.bvh.ray_traverse_miss(*ray, |r, id| self.tris[id].intersect(r))
+    }
+
+    fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.bvh.nodes.as_slice())
+            + std::mem::size_of_val(self.bvh.primitive_indices.as_slice())
+            + std::mem::size_of_val(self.tris.as_slice())
+    }
+}
+
+fn to_obvhs(r: &Ray) -> ORay {
+    ORay::new_inf(Vec3A::from(r.origin.to_array()), Vec3A::from(r.dir.to_array()))
+}
+
+fn main() {
+    let Some(dir) = shared_meshes() else {
+        eprintln!("skipped: ../shared/meshes is not beside the repository");
+        return;
+    };
+    let side = std::env::var("RAYLUME_COMPARE_SIDE").ok().and_then(|s| s.parse().ok()).unwrap_or(1024);
+    let mut c = Criterion::default()
+        .sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3))
+        .configure_from_args();
+    let mut notes = Vec::new();
+    for mesh in MESHES {
+        let w = match Workload::load(&dir.join(format!("{mesh}.obj")), side) {
+            Ok(w) => w,
+            Err(e) => {
+                eprintln!("skipped {mesh}: {e}");
+                continue;
+            }
+        };
+        notes.push(measure(&mut c, &w));
+    }
+    c.final_summary();
+    print_table(&notes);
+}
+
+/// What the bench prints beside criterion's timings.
+struct Note {
+    mesh: String,
+    triangles: usize,
+    raylume_bytes: usize,
+    obvhs_bytes: usize,
+    agreement: [String; 2],
+}
+
+fn measure(c: &mut Criterion, w: &Workload) -> Note {
+    let prims: Vec<Primitive> = w.triangles.iter().map(|&t| Primitive::Triangle(t)).collect();
+    let otris: Vec<OTriangle> = w
+        .triangles
+        .iter()
+        .map(|t| {
+            let [v0, v1, v2] = t.p.map(|p| Vec3A::from(p.to_array()));
+            OTriangle { v0, v1, v2 }
+        })
+        .collect();
+    let shutter = Interval::new(0.0, 0.0);
+
+    let mut group = c.benchmark_group(format!("{}/build", w.name));
+    group.throughput(Throughput::Elements(prims.len() as u64));
+    group.bench_function("raylume", |b| b.iter(|| Bvh::new(black_box(prims.clone()), shutter)));
+    group.bench_function("obvhs", |b| b.iter(|| Obvhs::build(black_box(&otris))));
+    group.finish();
+
+    let ours = Bvh::new(prims.clone(), shutter);
+    let theirs = Obvhs::build(&otris);
+    let mut agreement = [String::new(), String::new()];
+    for (k, (kind, rays)) in [("camera", &w.camera), ("random", &w.random)].into_iter().enumerate() {
+        let orays: Vec<ORay> = rays.iter().map(to_obvhs).collect();
+        agreement[k] = agree(&ours, &theirs, rays, &orays);
+        let mut group = c.benchmark_group(format!("{}/closest", w.name));
+        group.throughput(Throughput::Elements(rays.len() as u64));
+        group.bench_with_input(BenchmarkId::new("raylume", kind), rays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count())
+        });
+        group.bench_with_input(BenchmarkId::new("obvhs", kind), &orays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.closest(r).is_some()).count())
+        });
+        group.finish();
+        let mut group = c.benchmark_group(format!("{}/occluded", w.name));
+        group.throughput(Throughput::Elements(rays.len() as u64));
+        group.bench_with_input(BenchmarkId::new("raylume", kind), rays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count())
+        });
+        group.bench_with_input(BenchmarkId::new("obvhs", kind), &orays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.occluded(r)).count())
+        });
+        group.finish();
+    }
+    Note {
+        mesh: w.name.clone(),
+        triangles: prims.len(),
+        raylume_bytes: ours.stats().bytes,
+        obvhs_bytes: theirs.bytes(),
+        agreement,
+    }
+}
+
+/// How far the two engines agree: rays hit by one only, and hits whose distances differ by more than
+/// 1e-4 relative (the two triangle tests differ on edges: raylume's is watertight, obvhs's is not).
+fn agree(ours: &Bvh<Primitive>, theirs: &Obvhs, rays: &[Ray], orays: &[ORay]) -> String {
+    let (mut both, mut only_ours, mut only_theirs, mut far) = (0, 0, 0, 0);
+    for (r, o) in rays.iter().zip(orays) {
+        match (ours.closest_hit(r, Interval::POSITIVE), theirs.closest(o)) {
+            (Some(a), Some((t, _))) => {
+                both += 1;
+                if (a.hit.t - t).abs() > 1e-4 * t.abs().max(1.0) {
+                    far += 1;
+                }
+            }
+            (Some(_), None) => only_ours += 1,
+            (None, Some(_)) => only_theirs += 1,
+            (None, None) => {}
+        }
+    }
+    format!("{both} hit by both ({far} at another distance), {only_ours} by raylume only, {only_theirs} by obvhs only")
+}
+
+/// The median time of one criterion benchmark, from the estimates it just wrote.
+fn median_ns(id: &str) -> Option<f64> {
+    let path = criterion_dir().join(id).join("new/estimates.json");
+    let text = std::fs::read_to_string(path).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["median"]["point_estimate"].as_f64()
+}
+
+fn criterion_dir() -> PathBuf {
+    if let Some(home) = std::env::var_os("CRITERION_HOME") {
+        return PathBuf::from(home);
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target"));
+    target.join("criterion")
+}
+
+fn print_table(notes: &[Note]) {
+    println!("\n| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio |");
+    println!("|---|---|---|---|---|---|");
+    for n in notes {
+        for query in ["closest", "occluded"] {
+            for kind in ["camera", "random"] {
+                let ours = median_ns(&format!("{}_{query}/raylume/{kind}", n.mesh));
+                let theirs = median_ns(&format!("{}_{query}/obvhs/{kind}", n.mesh));
+                if let (Some(a), Some(b)) = (ours, theirs) {
+                    let count = rays_per_iteration();
+                    let (ma, mb) = (count / a * 1e3, count / b * 1e3);
+                    println!("| {} | {query} | {kind} | {ma:.2} | {mb:.2} | {:.2} |", n.mesh, ma / mb);
+                }
+            }
+        }
+    }
+    println!("\n| mesh | triangles | raylume build ms | obvhs build ms | ratio | raylume B/tri | obvhs B/tri |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in notes {
+        let ours = median_ns(&format!("{}_build/raylume", n.mesh));
+        let theirs = median_ns(&format!("{}_build/obvhs", n.mesh));
+        let ms = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{:.2}", v / 1e6));
+        let ratio = match (ours, theirs) {
+            (Some(a), Some(b)) => format!("{:.2}", a / b),
+            _ => "-".to_owned(),
+        };
+        println!(
+            "| {} | {} | {} | {} | {ratio} | {:.1} | {:.1} |",
+            n.mesh,
+            n.triangles,
+            ms(ours),
+            ms(theirs),
+            n.raylume_bytes as f64 / n.triangles as f64,
+            n.obvhs_bytes as f64 / n.triangles as f64
+        );
+    }
+    for n in notes {
+        println!("{} camera: {}", n.mesh, n.agreement[0]);
+        println!("{} random: {}", n.mesh, n.agreement[1]);
+    }
+}
+
+fn rays_per_iteration() -> f64 {
+    let side: f64 = std::env::var("RAYLUME_COMPARE_SIDE").ok().and_then(|s| s.parse().ok()).unwrap_or(1024.0);
+    side * side
+}
