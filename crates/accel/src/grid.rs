@@ -240,6 +240,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
         }
         let mut mailbox = Mailbox::new(self.mailbox);
         self.walk(ray, t_range.min, t_range.max, |items, exit| {
+            tally.visited();
             for &i in items {
                 if mailbox.first_visit(i) {
                     tally.tested();
@@ -268,6 +269,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
         let mut mailbox = Mailbox::new(self.mailbox);
         let mut hit = false;
         self.walk(ray, 0.0, t_max, |items, _| {
+            tally.visited();
             for &i in items {
                 if mailbox.first_visit(i) {
                     tally.tested();

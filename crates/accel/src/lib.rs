@@ -37,10 +37,36 @@ pub struct PrimitiveHit {
     pub primitive: u32,
 }
 
-/// Counts the primitives a query tests. `()` counts nothing (the render path); `u64` counts.
+/// Counts the work of a query. `()` counts nothing (the render path); `u64` counts primitive tests;
+/// [`Counts`] counts primitive tests and node visits.
 pub trait Tally {
     /// Records that one primitive was tested.
     fn tested(&mut self);
+
+    /// Records that one node (BVH) or cell (grid) was visited.
+    #[inline(always)]
+    fn visited(&mut self) {}
+}
+
+/// Primitive tests and node (or cell) visits of the queries it was passed to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Primitives tested.
+    pub tested: u64,
+    /// Nodes or cells visited.
+    pub visited: u64,
+}
+
+impl Tally for Counts {
+    #[inline(always)]
+    fn tested(&mut self) {
+        self.tested += 1;
+    }
+
+    #[inline(always)]
+    fn visited(&mut self) {
+        self.visited += 1;
+    }
 }
 
 impl Tally for () {

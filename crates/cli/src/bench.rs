@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Grid, GridParams};
+use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Counts, Grid, GridParams};
 use raylume_geometry::{Interval, Ray};
 use raylume_scene::{Scene, rays};
 use rayon::prelude::*;
@@ -85,13 +85,13 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
         best_occluded = best_occluded.min(t.elapsed().as_secs_f64());
     }
     // Primitives tested per ray, in a separate counting pass.
-    let mut tested = 0u64;
+    let mut work = Counts::default();
     for r in &rays {
-        accel.closest_hit_tally(r, Interval::POSITIVE, &mut tested);
+        accel.closest_hit_tally(r, Interval::POSITIVE, &mut work);
     }
-    let mut tested_shadow = 0u64;
+    let mut work_shadow = Counts::default();
     for r in &rays {
-        accel.occluded_tally(r, f32::INFINITY, &mut tested_shadow);
+        accel.occluded_tally(r, f32::INFINITY, &mut work_shadow);
     }
     if let Some(path) = &args.write_hits {
         write_atomically(path, |out| rays::write_hits(out, &hits))?;
@@ -113,8 +113,14 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
     println!("occlusion           {:.3} Mrays/s", count / best_occluded / 1e6);
     println!(
         "tested per ray      {:.2} (closest hit), {:.2} (occlusion)",
-        tested as f64 / count,
-        tested_shadow as f64 / count
+        work.tested as f64 / count,
+        work_shadow.tested as f64 / count
+    );
+    println!(
+        "visited per ray     {:.2} (closest hit), {:.2} (occlusion) {}",
+        work.visited as f64 / count,
+        work_shadow.visited as f64 / count,
+        if matches!(args.accel, AccelKind::Grid) { "cells" } else { "nodes" }
     );
     Ok(())
 }

@@ -4,14 +4,14 @@
 use raylume_geometry::{Aabb, Vec3A};
 
 /// Number of SAH bins per axis.
-const BINS: usize = 12;
+const BINS: usize = 32;
 /// Cost of visiting a node relative to one leaf block test.
 const TRAVERSAL_COST: f32 = 1.0;
 
 /// How a [`Bvh`](super::Bvh) chooses its splits.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BvhBuild {
-    /// Binned surface area heuristic (12 bins on the largest centroid axis); the SAH also decides
+    /// Binned surface area heuristic (32 bins on each axis); the SAH also decides
     /// when to stop (leaves of up to 4 primitives).
     #[default]
     Sah,
@@ -108,21 +108,20 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize
         return finish_inner(items, nodes, me, first, depth, params, axis, mid);
     }
     let axis = cb.longest_axis();
-    let extent = cb.diagonal()[axis];
-    let mid = if extent <= 0.0 {
+    let (axis, mid) = if cb.diagonal()[axis] <= 0.0 {
         // All centroids coincide: split by count if the leaf would be too large.
         if n <= params.max_leaf {
             return;
         }
-        n / 2
+        (axis, n / 2)
     } else {
-        let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, axis, extent, params) } else { None };
+        let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, params) } else { None };
         match sah {
-            Some(mid) => mid,
+            Some(split) => split,
             None if n <= params.max_leaf => return,
             None => {
                 items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-                n / 2
+                (axis, n / 2)
             }
         }
     };
@@ -185,64 +184,66 @@ fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> (usize, 
     (axis, mid)
 }
 
-/// Partitions `items` at the cheapest SAH bin boundary on `axis`; `None` if a leaf is cheaper.
-fn sah_split(
-    items: &mut [BuildItem],
-    bounds: &Aabb,
-    cb: &Aabb,
-    axis: usize,
-    extent: f32,
-    params: &Params,
-) -> Option<usize> {
+/// Partitions `items` at the cheapest SAH bin boundary of the three axes; `None` if a leaf is cheaper.
+/// Returns the axis and the number of items put on its lower side.
+fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params) -> Option<(usize, usize)> {
     let blocks = |n: usize| n.div_ceil(params.block) as f32;
     let n = items.len();
-    let lo = cb.min[axis];
-    let scale = BINS as f32 / extent;
-    let bin_of = |c: Vec3A| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
-    let mut bin_bounds = [Aabb::EMPTY; BINS];
-    let mut bin_count = [0usize; BINS];
-    for it in items.iter() {
-        let b = bin_of(it.centroid);
-        bin_bounds[b] = bin_bounds[b].union(it.bounds);
-        bin_count[b] += 1;
-    }
-    // Sweep from the right to get the area and count right of each boundary.
-    let mut right_area = [0.0f32; BINS];
-    let mut right_count = [0usize; BINS];
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-    for i in (1..BINS).rev() {
-        acc = acc.union(bin_bounds[i]);
-        cnt += bin_count[i];
-        right_area[i] = acc.surface_area();
-        right_count[i] = cnt;
-    }
-    let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-    let mut best = (f32::INFINITY, 0);
-    for i in 1..BINS {
-        acc = acc.union(bin_bounds[i - 1]);
-        cnt += bin_count[i - 1];
-        if cnt == 0 || right_count[i] == 0 {
+    let bin_of = |c: Vec3A, axis: usize, lo: f32, scale: f32| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
+    // (cost, axis, boundary)
+    let mut best = (f32::INFINITY, 0, 0);
+    for axis in 0..3 {
+        let extent = cb.diagonal()[axis];
+        if extent <= 0.0 {
             continue;
         }
-        let cost = acc.surface_area() * blocks(cnt) + right_area[i] * blocks(right_count[i]);
-        if cost < best.0 {
-            best = (cost, i);
+        let (lo, scale) = (cb.min[axis], BINS as f32 / extent);
+        let mut bin_bounds = [Aabb::EMPTY; BINS];
+        let mut bin_count = [0usize; BINS];
+        for it in items.iter() {
+            let b = bin_of(it.centroid, axis, lo, scale);
+            bin_bounds[b] = bin_bounds[b].union(it.bounds);
+            bin_count[b] += 1;
+        }
+        // Sweep from the right to get the area and count right of each boundary.
+        let mut right_area = [0.0f32; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        for i in (1..BINS).rev() {
+            acc = acc.union(bin_bounds[i]);
+            cnt += bin_count[i];
+            right_area[i] = acc.surface_area();
+            right_count[i] = cnt;
+        }
+        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        for i in 1..BINS {
+            acc = acc.union(bin_bounds[i - 1]);
+            cnt += bin_count[i - 1];
+            if cnt == 0 || right_count[i] == 0 {
+                continue;
+            }
+            let cost = acc.surface_area() * blocks(cnt) + right_area[i] * blocks(right_count[i]);
+            if cost < best.0 {
+                best = (cost, axis, i);
+            }
         }
     }
-    if best.1 == 0 {
+    let (cost, axis, boundary) = best;
+    if boundary == 0 {
         return None;
     }
-    let split_cost = TRAVERSAL_COST + best.0 / bounds.surface_area().max(f32::MIN_POSITIVE);
+    let split_cost = TRAVERSAL_COST + cost / bounds.surface_area().max(f32::MIN_POSITIVE);
     if n <= params.max_leaf && split_cost >= blocks(n) {
         return None;
     }
     // Partition in place: items in bins below the boundary first.
+    let (lo, scale) = (cb.min[axis], BINS as f32 / cb.diagonal()[axis]);
     let mut mid = 0;
     for i in 0..n {
-        if bin_of(items[i].centroid) < best.1 {
+        if bin_of(items[i].centroid, axis, lo, scale) < boundary {
             items.swap(i, mid);
             mid += 1;
         }
     }
-    (mid > 0 && mid < n).then_some(mid)
+    (mid > 0 && mid < n).then_some((axis, mid))
 }

@@ -123,7 +123,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }
         let box_ray = BoxRay::new(ray);
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest(&box_ray, t_range.min, t_range.max, |leaf, t_max| {
+            tree.closest(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
                 for i in first..first + count {
@@ -141,7 +141,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }
         if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
-            tree.closest(&box_ray, t_range.min, t_range.max, |leaf, t_max| {
+            tree.closest(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 let packet = &packets[first];
                 for _ in 0..count {
@@ -180,7 +180,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         let box_ray = BoxRay::new(ray);
         if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
             let range = Interval::new(0.0, t_max);
-            let hit = tree.any(&box_ray, t_max, |leaf| {
+            let hit = tree.any(&box_ray, t_max, tally, |leaf, tally| {
                 let (first, count) = leaf_range(leaf);
                 let packet = &packets[first];
                 let mut lanes = candidates(packet, &sheared, count);
@@ -201,7 +201,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             }
         }
         if let Some((tree, prims, _)) = &self.others {
-            return tree.any(&box_ray, t_max, |leaf| {
+            return tree.any(&box_ray, t_max, tally, |leaf, tally| {
                 let (first, count) = leaf_range(leaf);
                 prims[first..first + count].iter().any(|p| {
                     tally.tested();

@@ -4,6 +4,7 @@
 use raylume_geometry::{Aabb, Ray};
 
 use super::build::Node;
+use crate::Tally;
 
 /// Children per node.
 pub(super) const WIDTH: usize = 4;
@@ -155,13 +156,21 @@ impl WideTree {
     /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
     /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`.
     #[inline(always)]
-    pub fn closest(&self, ray: &BoxRay, t_min: f32, mut t_max: f32, mut leaf: impl FnMut(u32, f32) -> f32) {
+    pub fn closest<T: Tally>(
+        &self,
+        ray: &BoxRay,
+        t_min: f32,
+        mut t_max: f32,
+        tally: &mut T,
+        mut leaf: impl FnMut(u32, f32, &mut T) -> f32,
+    ) {
         let mut stack = [(0u32, 0.0f32); STACK];
         let mut sp = 0;
         let mut cur = self.root;
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
+                tally.visited();
                 let (near, mut mask) = ray.intersect(node, t_min, t_max);
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
@@ -193,7 +202,7 @@ impl WideTree {
                     continue;
                 }
             } else {
-                t_max = leaf(cur, t_max);
+                t_max = leaf(cur, t_max, tally);
             }
             loop {
                 if sp == 0 {
@@ -212,10 +221,16 @@ impl WideTree {
     /// Whether any leaf the ray meets within `[0, t_max]` reports a hit (`leaf` returns `true`); the
     /// nearest boxes are visited first, as shadow rays towards closed meshes meet them first.
     #[inline(always)]
-    pub fn any(&self, ray: &BoxRay, t_max: f32, mut leaf: impl FnMut(u32) -> bool) -> bool {
+    pub fn any<T: Tally>(
+        &self,
+        ray: &BoxRay,
+        t_max: f32,
+        tally: &mut T,
+        mut leaf: impl FnMut(u32, &mut T) -> bool,
+    ) -> bool {
         let mut hit = false;
-        self.closest(ray, 0.0, t_max, |r, t| {
-            if leaf(r) {
+        self.closest(ray, 0.0, t_max, tally, |r, t, tally| {
+            if leaf(r, tally) {
                 hit = true;
                 f32::NEG_INFINITY
             } else {
