@@ -1,6 +1,7 @@
 //! The wide tree: nodes of four children whose boxes a ray tests together, collapsed from the binary
 //! build, and the ordered traversal shared by every kind of leaf.
 
+use glam::Vec4;
 use raylume_geometry::{Aabb, Ray};
 
 use super::build::Node;
@@ -17,6 +18,8 @@ pub(super) const MAX_FIRST: u32 = (1 << COUNT_SHIFT) - 1;
 const EMPTY: u32 = u32::MAX;
 /// Traversal stack entries: three per level of a tree at most 70 levels deep.
 const STACK: usize = 256;
+/// The stack of trees at most 21 levels deep, which spares most queries clearing the large one.
+const SHORT_STACK: usize = 64;
 
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
 const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
@@ -26,7 +29,7 @@ const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct WideNode {
-    bounds: [[f32; WIDTH]; 6],
+    bounds: [Vec4; 6],
     child: [u32; WIDTH],
 }
 
@@ -34,12 +37,12 @@ const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
 
 const EMPTY_NODE: WideNode = WideNode {
     bounds: [
-        [f32::INFINITY; WIDTH],
-        [f32::INFINITY; WIDTH],
-        [f32::INFINITY; WIDTH],
-        [f32::NEG_INFINITY; WIDTH],
-        [f32::NEG_INFINITY; WIDTH],
-        [f32::NEG_INFINITY; WIDTH],
+        Vec4::INFINITY,
+        Vec4::INFINITY,
+        Vec4::INFINITY,
+        Vec4::NEG_INFINITY,
+        Vec4::NEG_INFINITY,
+        Vec4::NEG_INFINITY,
     ],
     child: [EMPTY; WIDTH],
 };
@@ -65,28 +68,33 @@ pub(super) fn leaf_ref(first: usize, count: usize) -> u32 {
 /// included, and a miss otherwise; the far end of each slab is widened by pbrt's `1 + 2 gamma(3)`.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BoxRay {
-    origin: [f32; 3],
-    inv_near: [f32; 3],
-    inv_far: [f32; 3],
+    origin: [Vec4; 3],
+    inv_near: [Vec4; 3],
+    inv_far: [Vec4; 3],
     negative: [bool; 3],
 }
 
 impl BoxRay {
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let mut r = Self { origin: ray.origin.to_array(), inv_near: [0.0; 3], inv_far: [0.0; 3], negative: [false; 3] };
+        let mut r = Self {
+            origin: ray.origin.to_array().map(Vec4::splat),
+            inv_near: [Vec4::ZERO; 3],
+            inv_far: [Vec4::ZERO; 3],
+            negative: [false; 3],
+        };
         for a in 0..3 {
             let d = ray.dir[a];
             if d.abs() < f32::MIN_POSITIVE {
                 // Parallel: (min - o) * inf is +inf (a miss) when the origin is below the slab, and
                 // (max - o) * inf is -inf when above; on a face the product is NaN, which the
                 // comparisons of `intersect` ignore.
-                r.inv_near[a] = f32::INFINITY;
-                r.inv_far[a] = f32::INFINITY;
+                r.inv_near[a] = Vec4::INFINITY;
+                r.inv_far[a] = Vec4::INFINITY;
             } else {
                 let inv = 1.0 / d;
-                r.inv_near[a] = inv;
-                r.inv_far[a] = inv * WIDEN;
+                r.inv_near[a] = Vec4::splat(inv);
+                r.inv_far[a] = Vec4::splat(inv * WIDEN);
                 r.negative[a] = d < 0.0;
             }
         }
@@ -96,30 +104,23 @@ impl BoxRay {
     /// The entry distances of the four children and the mask of those the ray meets within
     /// `[t_min, t_max]`.
     #[inline(always)]
-    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> ([f32; WIDTH], u32) {
-        let mut near = [t_min; WIDTH];
-        let mut far = [t_max; WIDTH];
+    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
+        let mut near = Vec4::splat(t_min);
+        let mut far = Vec4::splat(t_max);
         for a in 0..3 {
             let (lo, hi) = if self.negative[a] {
-                (&node.bounds[a + 3], &node.bounds[a])
+                (node.bounds[a + 3], node.bounds[a])
             } else {
-                (&node.bounds[a], &node.bounds[a + 3])
+                (node.bounds[a], node.bounds[a + 3])
             };
-            let o = self.origin[a];
-            let (inv_n, inv_f) = (self.inv_near[a], self.inv_far[a]);
-            for i in 0..WIDTH {
-                let tn = (lo[i] - o) * inv_n;
-                let tf = (hi[i] - o) * inv_f;
-                // Written so that a NaN leaves the bound as it was (maxps/minps keep the second operand).
-                near[i] = if tn > near[i] { tn } else { near[i] };
-                far[i] = if tf < far[i] { tf } else { far[i] };
-            }
+            let tn = (lo - self.origin[a]) * self.inv_near[a];
+            let tf = (hi - self.origin[a]) * self.inv_far[a];
+            // maxps/minps return their second operand when either is NaN: a NaN product leaves the
+            // bound as it was (glam's scalar fallback, f32::max/min, does the same).
+            near = tn.max(near);
+            far = tf.min(far);
         }
-        let mut mask = 0;
-        for i in 0..WIDTH {
-            mask |= ((near[i] <= far[i]) as u32) << i;
-        }
-        (near, mask)
+        (near, near.cmple(far).bitmask())
     }
 }
 
@@ -129,6 +130,8 @@ pub(super) struct WideTree {
     nodes: Vec<WideNode>,
     root: u32,
     bounds: Aabb,
+    /// Levels of inner nodes on the longest path.
+    depth: usize,
 }
 
 impl WideTree {
@@ -138,7 +141,16 @@ impl WideTree {
     pub fn collapse(bin: &[Node], mut leaf: impl FnMut(usize, usize) -> u32) -> Self {
         let mut nodes = Vec::with_capacity(bin.len() / 2 + 1);
         let root = collapse_node(bin, 0, &mut nodes, &mut leaf);
-        Self { nodes, root, bounds: bin[0].aabb() }
+        let mut tree = Self { nodes, root, bounds: bin[0].aabb(), depth: 0 };
+        tree.depth = tree.depth_below(root);
+        tree
+    }
+
+    fn depth_below(&self, r: u32) -> usize {
+        if r & LEAF != 0 {
+            return 0;
+        }
+        1 + self.nodes[r as usize].child.iter().map(|&c| self.depth_below(c)).max().unwrap_or(0)
     }
 
     pub fn node_count(&self) -> usize {
@@ -160,11 +172,28 @@ impl WideTree {
         &self,
         ray: &BoxRay,
         t_min: f32,
+        t_max: f32,
+        tally: &mut T,
+        leaf: impl FnMut(u32, f32, &mut T) -> f32,
+    ) {
+        // Each level pushes at most three entries.
+        if 3 * self.depth < SHORT_STACK {
+            self.closest_with::<SHORT_STACK, T>(ray, t_min, t_max, tally, leaf)
+        } else {
+            self.closest_with::<STACK, T>(ray, t_min, t_max, tally, leaf)
+        }
+    }
+
+    #[inline(always)]
+    fn closest_with<const N: usize, T: Tally>(
+        &self,
+        ray: &BoxRay,
+        t_min: f32,
         mut t_max: f32,
         tally: &mut T,
         mut leaf: impl FnMut(u32, f32, &mut T) -> f32,
     ) {
-        let mut stack = [(0u32, 0.0f32); STACK];
+        let mut stack = [(0u32, 0.0f32); N];
         let mut sp = 0;
         let mut cur = self.root;
         loop {
