@@ -109,8 +109,11 @@ where
     if cw == 0 || ch == 0 {
         return (Film::from_pixels(cw, ch, pixels), RayStats::default());
     }
+    // One row per task: rows differ a lot in cost (an object in the middle of the frame), and rayon
+    // can only hand an idle thread a task that has not started.
     let stats = pixels
         .par_chunks_mut(cw as usize)
+        .with_max_len(1)
         .enumerate()
         .map(|(row, out)| {
             let mut stats = RayStats::default();
