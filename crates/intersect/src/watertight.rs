@@ -120,6 +120,19 @@ pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Opt
 /// closest one only.
 #[inline]
 pub fn watertight_decide(tri: &Triangle, ray: &ShearedRay, t_range: Interval) -> Option<TriangleHit> {
+    decide::<true>(tri, ray, t_range)
+}
+
+/// Whether [`watertight_decide`] finds a hit: the same decision, without refining the distance of
+/// the hit (shadow rays need only the answer).
+#[inline]
+pub fn watertight_hits(tri: &Triangle, ray: &ShearedRay, t_range: Interval) -> bool {
+    decide::<false>(tri, ray, t_range).is_some()
+}
+
+/// The decision; `REFINE` computes the hit's distance on the vertices' plane in f64.
+#[inline(always)]
+fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interval) -> Option<TriangleHit> {
     let sz = ray.shear[2];
     let [ax, ay, a_z] = ray.transform(tri.p[0]);
     let [bx, by, b_z] = ray.transform(tri.p[1]);
@@ -169,7 +182,7 @@ pub fn watertight_decide(tri: &Triangle, ray: &ShearedRay, t_range: Interval) ->
     // The hit is decided; its distance is refined on the plane through the vertices, in f64, where
     // the differences and cross products of f32 coordinates are (nearly) exact. This keeps t at a few
     // ulps even for large triangles seen at grazing angles, where the sheared coordinates lose it.
-    let t = plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t);
+    let t = if REFINE { plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t) } else { t };
     Some(TriangleHit { t, b: [u * inv, v * inv, w * inv], normal })
 }
 

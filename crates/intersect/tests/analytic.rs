@@ -264,6 +264,21 @@ proptest! {
         }
     }
 
+    /// The shadow-ray test answers exactly as the closest-hit decision, on any ray range, including
+    /// rays aimed at edges and vertices.
+    #[test]
+    fn watertight_hits_agrees_with_decide(a in finite_vec(10.0), b in finite_vec(10.0), c in finite_vec(10.0), o in finite_vec(20.0),
+                                          aim in finite_vec(10.0), at_edge in 0usize..4, s in 0.0f32..1.0, t_max in 0.0f32..40.0) {
+        use raylume_intersect::{ShearedRay, watertight_decide, watertight_hits};
+        let tri = Triangle::new(a, b, c);
+        let target = if at_edge < 3 { tri.p[at_edge].lerp(tri.p[(at_edge + 1) % 3], s) } else { aim };
+        let Some(dir) = (target - o).try_normalize() else { return Ok(()) };
+        let Some(sheared) = ShearedRay::new(&Ray::new(o, dir)) else { return Ok(()) };
+        for range in [Interval::POSITIVE, Interval::new(0.0, t_max)] {
+            prop_assert_eq!(watertight_hits(&tri, &sheared, range), watertight_decide(&tri, &sheared, range).is_some());
+        }
+    }
+
     /// Sphere hits lie on the sphere within their error bound, at any scale and offset.
     #[test]
     fn sphere_points_within_error_bound(c in finite_vec(1e5), r in log_uniform(-3.0, 5.0), o in finite_vec(1.0), aim in finite_vec(1.0)) {

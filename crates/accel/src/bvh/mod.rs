@@ -190,7 +190,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros();
                     lanes &= lanes - 1;
-                    if raylume_intersect::watertight_decide(&packet.triangle(lane), &sheared, range).is_some() {
+                    if raylume_intersect::watertight_hits(&packet.triangle(lane), &sheared, range) {
                         return true;
                     }
                 }
