@@ -1,5 +1,5 @@
 //! Acceleration structures for raylume behind one [`Accelerator`] trait: [`BruteForce`] (the reference),
-//! [`Bvh`] (a flattened bounding volume hierarchy, binned-SAH or the course's midpoint build) and
+//! [`Bvh`] (a bounding volume hierarchy of four-child nodes, binned-SAH or the course's midpoint build) and
 //! [`Grid`] (a uniform grid with 3D-DDA traversal and per-ray mailboxing).
 //!
 //! ```
