@@ -208,8 +208,20 @@ impl WideTree {
                         cur = node.child[first];
                         continue;
                     }
-                    // Two or more children: sort them by entry distance, push all but the nearest
+                    let near = near.to_array();
+                    let second = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        // Two children, the most common case: order them without a branch.
+                        let (a, b) = if near[second] < near[first] { (second, first) } else { (first, second) };
+                        stack[sp] = (node.child[b], near[b]);
+                        sp += 1;
+                        cur = node.child[a];
+                        continue;
+                    }
+                    // Three or four children: sort them by entry distance, push all but the nearest
                     // (farthest first) and go on with the nearest.
+                    mask |= 1 << second;
                     let mut hits = [(near[first], node.child[first]); WIDTH];
                     let mut n = 1;
                     while mask != 0 {
