@@ -124,6 +124,13 @@ impl BoxRay {
     }
 }
 
+/// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
+#[inline(always)]
+fn order_key(f: f32) -> u32 {
+    let b = f.to_bits();
+    b ^ (((b as i32) >> 31) as u32 | 0x8000_0000)
+}
+
 /// A wide tree: nodes and the reference of the root (an inner node or a single leaf).
 #[derive(Clone, Debug)]
 pub(super) struct WideTree {
@@ -219,27 +226,28 @@ impl WideTree {
                         cur = node.child[a];
                         continue;
                     }
-                    // Three or four children: sort them by entry distance, push all but the nearest
-                    // (farthest first) and go on with the nearest.
-                    mask |= 1 << second;
-                    let mut hits = [(near[first], node.child[first]); WIDTH];
-                    let mut n = 1;
-                    while mask != 0 {
-                        let i = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        let mut j = n;
-                        while j > 0 && hits[j - 1].0 > near[i] {
-                            hits[j] = hits[j - 1];
-                            j -= 1;
+                    // Three or four children: sort the four slots by entry distance with a network
+                    // (keys carry the slot in their two low bits; missed slots sort last), push the
+                    // hit ones but the nearest, farthest first, and go on with the nearest.
+                    mask |= (1 << first) | (1 << second);
+                    let mut k = [u32::MAX; WIDTH];
+                    for (i, key) in k.iter_mut().enumerate() {
+                        if mask & (1 << i) != 0 {
+                            *key = (order_key(near[i]) & !3) | i as u32;
                         }
-                        hits[j] = (near[i], node.child[i]);
-                        n += 1;
                     }
-                    for k in (1..n).rev() {
-                        stack[sp] = (hits[k].1, hits[k].0);
-                        sp += 1;
+                    for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                        let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
+                        k[a] = lo;
+                        k[b] = hi;
                     }
-                    cur = hits[0].1;
+                    let n = mask.count_ones() as usize;
+                    for j in 0..WIDTH - 1 {
+                        let slot = (k[(n - 1 - j).max(1)] & 3) as usize;
+                        stack[sp + j] = (node.child[slot], near[slot]);
+                    }
+                    sp += n - 1;
+                    cur = node.child[(k[0] & 3) as usize];
                     continue;
                 }
             } else {
