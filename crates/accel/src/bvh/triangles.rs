@@ -4,6 +4,7 @@
 //!
 //! [`watertight_decide`]: raylume_intersect::watertight_decide
 
+use glam::Vec4;
 use raylume_geometry::{Triangle, Vec3A};
 use raylume_intersect::ShearedRay;
 
@@ -65,31 +66,22 @@ impl Packet {
 #[inline(always)]
 pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
-    let [sx, sy, _] = ray.shear;
-    let (ox, oy, oz) = (ray.origin[kx], ray.origin[ky], ray.origin[kz]);
-    let mut x = [[0.0f32; LANES]; 3];
-    let mut y = [[0.0f32; LANES]; 3];
-    for k in 0..3 {
-        let (px, py, pz) = (&p.v[k][kx], &p.v[k][ky], &p.v[k][kz]);
-        for l in 0..LANES {
-            let az = pz[l] - oz;
-            x[k][l] = (px[l] - ox) - sx * az;
-            y[k][l] = (py[l] - oy) - sy * az;
-        }
-    }
-    let mut mask = 0u32;
-    for l in 0..LANES {
-        let (ax, ay, bx, by, cx, cy) = (x[0][l], y[0][l], x[1][l], y[1][l], x[2][l], y[2][l]);
-        let u = cx * by - cy * bx;
-        let v = ax * cy - ay * cx;
-        let w = bx * ay - by * ax;
-        let negative = u < 0.0 || v < 0.0 || w < 0.0;
-        let positive = u > 0.0 || v > 0.0 || w > 0.0;
-        let zero = u == 0.0 || v == 0.0 || w == 0.0;
-        let rejected = negative & positive & !zero;
-        mask |= (!rejected as u32) << l;
-    }
-    mask & ((1 << count) - 1)
+    let [sx, sy, _] = ray.shear.map(Vec4::splat);
+    let (ox, oy, oz) = (Vec4::splat(ray.origin[kx]), Vec4::splat(ray.origin[ky]), Vec4::splat(ray.origin[kz]));
+    let sheared = |k: usize| {
+        let az = Vec4::from_array(p.v[k][kz]) - oz;
+        ((Vec4::from_array(p.v[k][kx]) - ox) - sx * az, (Vec4::from_array(p.v[k][ky]) - oy) - sy * az)
+    };
+    let ((ax, ay), (bx, by), (cx, cy)) = (sheared(0), sheared(1), sheared(2));
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    let zero = Vec4::ZERO;
+    let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+    let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+    let on_edge = u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero);
+    let rejected = (negative & positive).bitmask() & !on_edge.bitmask();
+    !rejected & ((1 << count) - 1)
 }
 
 #[cfg(test)]
