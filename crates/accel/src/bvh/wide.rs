@@ -124,6 +124,17 @@ impl BoxRay {
     }
 }
 
+/// Number of bits set in each four-bit mask.
+const HIT_COUNT: [u8; 1 << WIDTH] = {
+    let mut t = [0u8; 1 << WIDTH];
+    let mut m = 0;
+    while m < t.len() {
+        t[m] = (m as u32).count_ones() as u8;
+        m += 1;
+    }
+    t
+};
+
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
 #[inline(always)]
 fn order_key(f: f32) -> u32 {
@@ -241,7 +252,8 @@ impl WideTree {
                         k[a] = lo;
                         k[b] = hi;
                     }
-                    let n = mask.count_ones() as usize;
+                    // A table: without the popcnt instruction (baseline x86-64) count_ones is a long sequence.
+                    let n = HIT_COUNT[mask as usize] as usize;
                     for j in 0..WIDTH - 1 {
                         let slot = (k[(n - 1 - j).max(1)] & 3) as usize;
                         stack[sp + j] = (node.child[slot], near[slot]);
