@@ -5,14 +5,15 @@ use raylume_geometry::{Aabb, Vec3A};
 
 /// Number of SAH bins per axis.
 const BINS: usize = 32;
-/// Cost of visiting a node relative to one leaf block test.
-const TRAVERSAL_COST: f32 = 1.0;
+/// Cost of visiting a node relative to one leaf block test (a packet of four triangles): measured
+/// on the bunny meshes, 2 beats 0.5 and 1 by a few percent on incoherent rays.
+const TRAVERSAL_COST: f32 = 2.0;
 
 /// How a [`Bvh`](super::Bvh) chooses its splits.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BvhBuild {
     /// Binned surface area heuristic (32 bins on each axis); the SAH also decides
-    /// when to stop (leaves of up to 4 primitives).
+    /// when to stop (leaves of up to two packets of four triangles, or up to 4 other primitives).
     #[default]
     Sah,
     /// The course's build: split the node's largest axis at its midpoint, fall back to the mean of the

@@ -11,13 +11,15 @@ pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray, Triangle};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
-use triangles::{Packet, candidates};
+use triangles::{LANES, Packet, candidates};
 use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
 /// Largest leaf of primitives other than triangles.
 const MAX_LEAF: usize = 4;
+/// Largest leaf of triangles: two packets.
+const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 
 /// A BVH over primitives.
 ///
@@ -74,13 +76,14 @@ impl<P: Intersect + Clone> Bvh<P> {
         }
         assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
         let triangles = (!tri_items.is_empty()).then(|| {
-            let bin = build_binary(&mut tri_items, method, triangles::LANES, triangles::LANES);
+            let bin = build_binary(&mut tri_items, method, LANES, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
             let tree = WideTree::collapse(&bin.nodes, |first, count| {
                 let lanes: Vec<(Triangle, u32)> =
                     tri_items[first..first + count].iter().map(|it| tris[it.index as usize]).collect();
-                packets.push(Packet::new(&lanes));
-                leaf_ref(packets.len() - 1, count)
+                let start = packets.len();
+                packets.extend(lanes.chunks(LANES).map(Packet::new));
+                leaf_ref(start, count)
             });
             (tree, packets)
         });
@@ -98,6 +101,17 @@ impl<P: Intersect + Clone> Bvh<P> {
             .fold(Aabb::EMPTY, Aabb::union);
         Self { triangles, others, unbounded, bounds }
     }
+}
+
+/// The candidate lanes of a leaf of `count` triangles in packets from `first`: bit `4 j + l` for lane
+/// `l` of packet `first + j`.
+#[inline(always)]
+fn leaf_candidates(packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
+    let mut lanes = 0;
+    for j in 0..count.div_ceil(LANES) {
+        lanes |= candidates(&packets[first + j], ray, (count - j * LANES).min(LANES)) << (j * LANES);
+    }
+    lanes
 }
 
 impl<P> Bvh<P> {
@@ -143,18 +157,18 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
             tree.closest(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
-                let packet = &packets[first];
                 for _ in 0..count {
                     tally.tested();
                 }
                 let mut range = t_range.with_max(t_max);
-                let mut lanes = candidates(packet, &sheared, count);
+                let mut lanes = leaf_candidates(packets, first, count, &sheared);
                 while lanes != 0 {
-                    let lane = lanes.trailing_zeros();
+                    let (p, lane) =
+                        (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
                     lanes &= lanes - 1;
-                    if let Some(h) = raylume_intersect::watertight_decide(&packet.triangle(lane), &sheared, range) {
+                    if let Some(h) = raylume_intersect::watertight_decide(&packets[p].triangle(lane), &sheared, range) {
                         range = range.with_max(h.t);
-                        found = Some((h, first as u32, lane));
+                        found = Some((h, p as u32, lane));
                     }
                 }
                 range.max
@@ -182,15 +196,15 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             let range = Interval::new(0.0, t_max);
             let hit = tree.any(&box_ray, t_max, tally, |leaf, tally| {
                 let (first, count) = leaf_range(leaf);
-                let packet = &packets[first];
-                let mut lanes = candidates(packet, &sheared, count);
                 for _ in 0..count {
                     tally.tested();
                 }
+                let mut lanes = leaf_candidates(packets, first, count, &sheared);
                 while lanes != 0 {
-                    let lane = lanes.trailing_zeros();
+                    let (p, lane) =
+                        (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
                     lanes &= lanes - 1;
-                    if raylume_intersect::watertight_hits(&packet.triangle(lane), &sheared, range) {
+                    if raylume_intersect::watertight_hits(&packets[p].triangle(lane), &sheared, range) {
                         return true;
                     }
                 }
