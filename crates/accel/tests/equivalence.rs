@@ -204,3 +204,70 @@ fn bvh_handles_many_coincident_primitives() {
     assert!((hit.hit.t - 4.0).abs() < 1e-5);
     assert!(bvh.node_count() > 1);
 }
+
+/// Closed meshes among other shapes: bundles of neighbouring rays (one origin, targets 0.05 apart,
+/// as a view's pixels) and scattered ones get the answers of brute force, through shared edges and
+/// vertices and through leaves of one and two triangle packets.
+#[test]
+fn closed_meshes_match_brute_force() {
+    let mut rng = Pcg32::new(21, 5);
+    let mut hits = 0;
+    for n in [1usize, 9, 120, 1500] {
+        let mut prims = random_scene(&mut rng, n);
+        if n % 2 == 1 {
+            prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -12.0, 0.0), normal: Vec3A::Y }));
+        }
+        for c in 0..3 {
+            let centre = point(&mut rng, 8.0);
+            let scale = 1.0 + 3.0 * uniform(&mut rng);
+            prims.extend(tessellated_cube(centre, scale, 3 + c).into_iter().map(Primitive::Triangle));
+        }
+        let brute = BruteForce::new(prims.clone());
+        let accels = all_accels(&prims, Interval::new(0.0, 1.0));
+        for b in 0..600 {
+            let o = point(&mut rng, 15.0);
+            let aim = point(&mut rng, 10.0);
+            for k in 0..4 {
+                let target =
+                    if b % 3 != 0 { aim + Vec3A::new(k as f32 * 0.05, 0.0, 0.0) } else { point(&mut rng, 10.0) };
+                let ray = Ray::with_time(o, (target - o).normalize(), uniform(&mut rng));
+                let t_max = uniform(&mut rng) * 30.0;
+                let expected = brute.closest_hit(&ray, Interval::POSITIVE);
+                hits += expected.is_some() as usize;
+                let expected_occluded = brute.occluded(&ray, t_max);
+                for (name, query) in &accels {
+                    let (got, occluded) = query(&ray, t_max);
+                    assert!(same_hit(&prims, &ray, expected, got), "{name}: {expected:?} vs {got:?} for {ray:?}");
+                    assert_eq!(occluded, expected_occluded, "{name}: occlusion of {ray:?} before {t_max}");
+                }
+            }
+        }
+    }
+    assert!(hits > 1000, "the rays must hit things: {hits}");
+}
+
+/// The surface of a cube split into `n x n` squares per face, two triangles each; every vertex is
+/// computed from its lattice point, so faces share their edges exactly.
+fn tessellated_cube(centre: Vec3A, half: f32, n: u32) -> Vec<Triangle> {
+    let at = |p: [u32; 3]| centre + (Vec3A::new(p[0] as f32, p[1] as f32, p[2] as f32) * (2.0 / n as f32) - 1.0) * half;
+    let mut tris = Vec::new();
+    for axis in 0..3 {
+        for side in [0, n] {
+            for i in 0..n {
+                for j in 0..n {
+                    let corner = |di: u32, dj: u32| {
+                        let mut p = [0; 3];
+                        p[axis] = side;
+                        p[(axis + 1) % 3] = i + di;
+                        p[(axis + 2) % 3] = j + dj;
+                        at(p)
+                    };
+                    let (a, b, c, d) = (corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1));
+                    tris.push(Triangle::new(a, b, c));
+                    tris.push(Triangle::new(a, c, d));
+                }
+            }
+        }
+    }
+    tris
+}

@@ -114,6 +114,43 @@ fn leaf_candidates(packets: &[Packet], first: usize, count: usize, ray: &Sheared
     lanes
 }
 
+/// Tests the leaf of `count` triangles in packets from `first` for the closest hit within `range`,
+/// keeping it in `found` (the hit, its packet and lane); returns the new end of the range.
+#[inline(always)]
+fn closest_in_leaf(
+    packets: &[Packet],
+    first: usize,
+    count: usize,
+    ray: &ShearedRay,
+    mut range: Interval,
+    found: &mut Option<(TriangleHit, u32, u32)>,
+) -> f32 {
+    let mut lanes = leaf_candidates(packets, first, count, ray);
+    while lanes != 0 {
+        let (p, lane) = (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
+        lanes &= lanes - 1;
+        if let Some(h) = raylume_intersect::watertight_decide(&packets[p].triangle(lane), ray, range) {
+            range = range.with_max(h.t);
+            *found = Some((h, p as u32, lane));
+        }
+    }
+    range.max
+}
+
+/// Whether any triangle of the leaf is hit within `range`.
+#[inline(always)]
+fn occluded_in_leaf(packets: &[Packet], first: usize, count: usize, ray: &ShearedRay, range: Interval) -> bool {
+    let mut lanes = leaf_candidates(packets, first, count, ray);
+    while lanes != 0 {
+        let (p, lane) = (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
+        lanes &= lanes - 1;
+        if raylume_intersect::watertight_hits(&packets[p].triangle(lane), ray, range) {
+            return true;
+        }
+    }
+    false
+}
+
 impl<P> Bvh<P> {
     /// Number of nodes in the trees.
     pub fn node_count(&self) -> usize {
@@ -122,11 +159,16 @@ impl<P> Bvh<P> {
     }
 }
 
-impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
-    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        if !ray.is_valid() {
-            return None;
-        }
+impl<P: Intersect> Bvh<P> {
+    /// The closest hit within `t_range` among the planes and the shapes other than triangles.
+    #[inline(always)]
+    fn closest_other<T: Tally>(
+        &self,
+        ray: &Ray,
+        box_ray: &BoxRay,
+        mut t_range: Interval,
+        tally: &mut T,
+    ) -> Option<PrimitiveHit> {
         let mut best = None;
         for (p, id) in &self.unbounded {
             tally.tested();
@@ -135,9 +177,8 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 best = Some(PrimitiveHit { hit, primitive: *id });
             }
         }
-        let box_ray = BoxRay::new(ray);
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
+            tree.closest(box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
                 for i in first..first + count {
@@ -149,9 +190,33 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 }
                 range.max
             });
-            if let Some(b) = &best {
-                t_range = t_range.with_max(b.hit.t);
-            }
+        }
+        best
+    }
+
+    /// Whether a bounded shape other than a triangle is hit within `(0, t_max)`.
+    #[inline(always)]
+    fn occluded_other<T: Tally>(&self, ray: &Ray, box_ray: &BoxRay, t_max: f32, tally: &mut T) -> bool {
+        let Some((tree, prims, _)) = &self.others else { return false };
+        tree.any(box_ray, t_max, tally, |leaf, tally| {
+            let (first, count) = leaf_range(leaf);
+            prims[first..first + count].iter().any(|p| {
+                tally.tested();
+                p.occluded(ray, t_max)
+            })
+        })
+    }
+}
+
+impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        if !ray.is_valid() {
+            return None;
+        }
+        let box_ray = BoxRay::new(ray);
+        let mut best = self.closest_other(ray, &box_ray, t_range, tally);
+        if let Some(b) = &best {
+            t_range = t_range.with_max(b.hit.t);
         }
         if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
@@ -160,18 +225,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 for _ in 0..count {
                     tally.tested();
                 }
-                let mut range = t_range.with_max(t_max);
-                let mut lanes = leaf_candidates(packets, first, count, &sheared);
-                while lanes != 0 {
-                    let (p, lane) =
-                        (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
-                    lanes &= lanes - 1;
-                    if let Some(h) = raylume_intersect::watertight_decide(&packets[p].triangle(lane), &sheared, range) {
-                        range = range.with_max(h.t);
-                        found = Some((h, p as u32, lane));
-                    }
-                }
-                range.max
+                closest_in_leaf(packets, first, count, &sheared, t_range.with_max(t_max), &mut found)
             });
             if let Some((h, packet, lane)) = found {
                 let packet = &packets[packet as usize];
@@ -199,31 +253,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 for _ in 0..count {
                     tally.tested();
                 }
-                let mut lanes = leaf_candidates(packets, first, count, &sheared);
-                while lanes != 0 {
-                    let (p, lane) =
-                        (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
-                    lanes &= lanes - 1;
-                    if raylume_intersect::watertight_hits(&packets[p].triangle(lane), &sheared, range) {
-                        return true;
-                    }
-                }
-                false
+                occluded_in_leaf(packets, first, count, &sheared, range)
             });
             if hit {
                 return true;
             }
         }
-        if let Some((tree, prims, _)) = &self.others {
-            return tree.any(&box_ray, t_max, tally, |leaf, tally| {
-                let (first, count) = leaf_range(leaf);
-                prims[first..first + count].iter().any(|p| {
-                    tally.tested();
-                    p.occluded(ray, t_max)
-                })
-            });
-        }
-        false
+        self.occluded_other(ray, &box_ray, t_max, tally)
     }
 
     fn bounds(&self) -> Aabb {

@@ -255,7 +255,7 @@ impl WideTree {
                     // A table: without the popcnt instruction (baseline x86-64) count_ones is a long sequence.
                     let n = HIT_COUNT[mask as usize] as usize;
                     for j in 0..WIDTH - 1 {
-                        let slot = (k[(n - 1 - j).max(1)] & 3) as usize;
+                        let slot = (k[(n - 1).saturating_sub(j).max(1)] & 3) as usize;
                         stack[sp + j] = (node.child[slot], near[slot]);
                     }
                     sp += n - 1;
