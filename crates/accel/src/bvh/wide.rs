@@ -194,16 +194,30 @@ impl WideTree {
         tally: &mut T,
         leaf: impl FnMut(u32, f32, &mut T) -> f32,
     ) {
+        self.visit::<false, T>(ray, t_min, t_max, tally, leaf)
+    }
+
+    /// [`WideTree::closest`]; with `ANY`, the walk stops as soon as `leaf` returns a `t_max` below
+    /// `t_min`.
+    #[inline(always)]
+    fn visit<const ANY: bool, T: Tally>(
+        &self,
+        ray: &BoxRay,
+        t_min: f32,
+        t_max: f32,
+        tally: &mut T,
+        leaf: impl FnMut(u32, f32, &mut T) -> f32,
+    ) {
         // Each level pushes at most three entries.
         if 3 * self.depth < SHORT_STACK {
-            self.closest_with::<SHORT_STACK, T>(ray, t_min, t_max, tally, leaf)
+            self.closest_with::<SHORT_STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
         } else {
-            self.closest_with::<STACK, T>(ray, t_min, t_max, tally, leaf)
+            self.closest_with::<STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
         }
     }
 
     #[inline(always)]
-    fn closest_with<const N: usize, T: Tally>(
+    fn closest_with<const N: usize, const ANY: bool, T: Tally>(
         &self,
         ray: &BoxRay,
         t_min: f32,
@@ -264,6 +278,10 @@ impl WideTree {
                 }
             } else {
                 t_max = leaf(cur, t_max, tally);
+                if ANY && t_max < t_min {
+                    // An any-hit query has its answer.
+                    return;
+                }
             }
             loop {
                 if sp == 0 {
@@ -290,7 +308,7 @@ impl WideTree {
         mut leaf: impl FnMut(u32, &mut T) -> bool,
     ) -> bool {
         let mut hit = false;
-        self.closest(ray, 0.0, t_max, tally, |r, t, tally| {
+        self.visit::<true, T>(ray, 0.0, t_max, tally, |r, t, tally| {
             if leaf(r, tally) {
                 hit = true;
                 f32::NEG_INFINITY
