@@ -84,6 +84,25 @@ fn all_accels(prims: &[Primitive], shutter: Interval) -> Vec<(&'static str, Quer
     ]
 }
 
+/// Asserts that every accelerator answers `ray` as brute force does (closest hit, and occlusion
+/// before `t_max`); returns whether the ray hits anything.
+fn check_against_brute_force(
+    prims: &[Primitive],
+    brute: &BruteForce<Primitive>,
+    accels: &[(&'static str, Query)],
+    ray: &Ray,
+    t_max: f32,
+) -> bool {
+    let expected = brute.closest_hit(ray, Interval::POSITIVE);
+    let expected_occluded = brute.occluded(ray, t_max);
+    for (name, query) in accels {
+        let (got, occluded) = query(ray, t_max);
+        assert!(same_hit(prims, ray, expected, got), "{name}: brute {expected:?} vs {got:?} for {ray:?}");
+        assert_eq!(occluded, expected_occluded, "{name}: occlusion of {ray:?} before {t_max}");
+    }
+    expected.is_some()
+}
+
 #[test]
 fn accelerators_match_brute_force_on_random_scenes() {
     let mut rng = Pcg32::new(7, 11);
@@ -100,17 +119,7 @@ fn accelerators_match_brute_force_on_random_scenes() {
             let d = (point(&mut rng, 10.0) - o).normalize();
             let ray = Ray::with_time(o, d, uniform(&mut rng));
             let t_max = uniform(&mut rng) * 30.0;
-            let expected = brute.closest_hit(&ray, Interval::POSITIVE);
-            hits += expected.is_some() as usize;
-            let expected_occluded = brute.occluded(&ray, t_max);
-            for (name, query) in &accels {
-                let (got, occluded) = query(&ray, t_max);
-                assert!(
-                    same_hit(&prims, &ray, expected, got),
-                    "{name}, scene of {n}: brute {expected:?} vs {got:?} for {ray:?}"
-                );
-                assert_eq!(occluded, expected_occluded, "{name}: occlusion, scene of {n}, {ray:?}");
-            }
+            hits += check_against_brute_force(&prims, &brute, &accels, &ray, t_max) as usize;
         }
         assert!(hits > 0, "the rays must hit something in scene {n}");
     }
@@ -232,14 +241,7 @@ fn closed_meshes_match_brute_force() {
                     if b % 3 != 0 { aim + Vec3A::new(k as f32 * 0.05, 0.0, 0.0) } else { point(&mut rng, 10.0) };
                 let ray = Ray::with_time(o, (target - o).normalize(), uniform(&mut rng));
                 let t_max = uniform(&mut rng) * 30.0;
-                let expected = brute.closest_hit(&ray, Interval::POSITIVE);
-                hits += expected.is_some() as usize;
-                let expected_occluded = brute.occluded(&ray, t_max);
-                for (name, query) in &accels {
-                    let (got, occluded) = query(&ray, t_max);
-                    assert!(same_hit(&prims, &ray, expected, got), "{name}: {expected:?} vs {got:?} for {ray:?}");
-                    assert_eq!(occluded, expected_occluded, "{name}: occlusion of {ray:?} before {t_max}");
-                }
+                hits += check_against_brute_force(&prims, &brute, &accels, &ray, t_max) as usize;
             }
         }
     }
