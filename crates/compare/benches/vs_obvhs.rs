@@ -8,7 +8,7 @@
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, SystemTime};
 
 use criterion::{BenchmarkId, Criterion, Throughput};
 use glam::Vec3A;
@@ -59,6 +59,7 @@ fn to_obvhs(r: &Ray) -> ORay {
 }
 
 fn main() {
+    let since = SystemTime::now();
     let Some(dir) = shared_meshes() else {
         eprintln!("skipped: ../shared/meshes is not beside the repository");
         return;
@@ -81,13 +82,15 @@ fn main() {
         notes.push(measure(&mut c, &w));
     }
     c.final_summary();
-    print_table(&notes);
+    print_table(&notes, since);
 }
 
 /// What the bench prints beside criterion's timings.
 struct Note {
     mesh: String,
     triangles: usize,
+    /// Rays per ray set (one benchmark iteration).
+    rays: usize,
     raylume_bytes: usize,
     obvhs_bytes: usize,
     agreement: [String; 2],
@@ -139,6 +142,7 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
     Note {
         mesh: w.name.clone(),
         triangles: prims.len(),
+        rays: w.camera.len(),
         raylume_bytes: ours.stats().bytes,
         obvhs_bytes: theirs.bytes(),
         agreement,
@@ -165,9 +169,13 @@ fn agree(ours: &Bvh<Primitive>, theirs: &Obvhs, rays: &[Ray], orays: &[ORay]) ->
     format!("{both} hit by both ({far} at another distance), {only_ours} by raylume only, {only_theirs} by obvhs only")
 }
 
-/// The median time of one criterion benchmark, from the estimates it just wrote.
-fn median_ns(id: &str) -> Option<f64> {
+/// The median time of one criterion benchmark, from the estimates this run wrote (older estimates,
+/// of benchmarks a filter left out, are ignored).
+fn median_ns(id: &str, since: SystemTime) -> Option<f64> {
     let path = criterion_dir().join(id).join("new/estimates.json");
+    if std::fs::metadata(&path).and_then(|m| m.modified()).ok()? < since {
+        return None;
+    }
     let text = std::fs::read_to_string(path).ok()?;
     let v: serde_json::Value = serde_json::from_str(&text).ok()?;
     v["median"]["point_estimate"].as_f64()
@@ -183,16 +191,16 @@ fn criterion_dir() -> PathBuf {
     target.join("criterion")
 }
 
-fn print_table(notes: &[Note]) {
+fn print_table(notes: &[Note], since: SystemTime) {
     println!("\n| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio |");
     println!("|---|---|---|---|---|---|");
     for n in notes {
         for query in ["closest", "occluded"] {
             for kind in ["camera", "random"] {
-                let ours = median_ns(&format!("{}_{query}/raylume/{kind}", n.mesh));
-                let theirs = median_ns(&format!("{}_{query}/obvhs/{kind}", n.mesh));
+                let ours = median_ns(&format!("{}_{query}/raylume/{kind}", n.mesh), since);
+                let theirs = median_ns(&format!("{}_{query}/obvhs/{kind}", n.mesh), since);
                 if let (Some(a), Some(b)) = (ours, theirs) {
-                    let count = rays_per_iteration();
+                    let count = n.rays as f64;
                     let (ma, mb) = (count / a * 1e3, count / b * 1e3);
                     println!("| {} | {query} | {kind} | {ma:.2} | {mb:.2} | {:.2} |", n.mesh, ma / mb);
                 }
@@ -202,8 +210,8 @@ fn print_table(notes: &[Note]) {
     println!("\n| mesh | triangles | raylume build ms | obvhs build ms | ratio | raylume B/tri | obvhs B/tri |");
     println!("|---|---|---|---|---|---|---|");
     for n in notes {
-        let ours = median_ns(&format!("{}_build/raylume", n.mesh));
-        let theirs = median_ns(&format!("{}_build/obvhs", n.mesh));
+        let ours = median_ns(&format!("{}_build/raylume", n.mesh), since);
+        let theirs = median_ns(&format!("{}_build/obvhs", n.mesh), since);
         let ms = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{:.2}", v / 1e6));
         let ratio = match (ours, theirs) {
             (Some(a), Some(b)) => format!("{:.2}", a / b),
@@ -223,9 +231,4 @@ fn print_table(notes: &[Note]) {
         println!("{} camera: {}", n.mesh, n.agreement[0]);
         println!("{} random: {}", n.mesh, n.agreement[1]);
     }
-}
-
-fn rays_per_iteration() -> f64 {
-    let side: f64 = std::env::var("RAYLUME_COMPARE_SIDE").ok().and_then(|s| s.parse().ok()).unwrap_or(1024.0);
-    side * side
 }

@@ -31,9 +31,7 @@ pub(super) struct Node {
     pub offset: u32,
     pub max: [f32; 3],
     /// Leaf: number of primitives (> 0). Inner: 0.
-    pub count: u16,
-    /// Inner: the split axis.
-    pub axis: u16,
+    pub count: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<Node>() == 32);
@@ -52,22 +50,17 @@ pub(super) struct BuildItem {
     pub index: u32,
 }
 
-/// A binary tree over build items, which are left in leaf order.
-pub(super) struct BinaryTree {
-    pub nodes: Vec<Node>,
-}
-
-/// Builds the binary tree over `items` (reordering them into leaf order). Leaves hold at most
+/// Builds the binary tree over `items` (reordering them into leaf order): its nodes, the root first. Leaves hold at most
 /// `max_leaf` items; the SAH counts a leaf's cost in blocks of `block` items (a leaf of triangles is
 /// tested four at a time).
-pub(super) fn build_binary(items: &mut [BuildItem], method: BvhBuild, block: usize, max_leaf: usize) -> BinaryTree {
+pub(super) fn build_binary(items: &mut [BuildItem], method: BvhBuild, block: usize, max_leaf: usize) -> Vec<Node> {
     let mut nodes = Vec::with_capacity((2 * items.len()).max(1));
     if !items.is_empty() {
         nodes.push(PLACEHOLDER);
         let params = Params { method, block, max_leaf };
         build(items, &mut nodes, 0, 0, 0, &params);
     }
-    BinaryTree { nodes }
+    nodes
 }
 
 struct Params {
@@ -87,8 +80,7 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize
         min: bounds.min.to_array(),
         offset: first as u32,
         max: bounds.max.to_array(),
-        count: items.len() as u16,
-        axis: 0,
+        count: items.len() as u32,
     };
     let n = items.len();
     if n <= 1 {
@@ -99,39 +91,35 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize
         if n <= MIDPOINT_LEAF {
             return;
         }
-        let (axis, mid) = if depth < MEDIAN_DEPTH {
-            midpoint_split(items, &bounds, &cb)
-        } else {
-            let axis = cb.longest_axis();
-            items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-            (axis, n / 2)
-        };
-        return finish_inner(items, nodes, me, first, depth, params, axis, mid);
+        let mid = if depth < MEDIAN_DEPTH { midpoint_split(items, &bounds, &cb) } else { median_split(items, &cb) };
+        return finish_inner(items, nodes, me, first, depth, params, mid);
     }
-    let axis = cb.longest_axis();
-    let (axis, mid) = if cb.diagonal()[axis] <= 0.0 {
+    let mid = if cb.diagonal().max_element() <= 0.0 {
         // All centroids coincide: split by count if the leaf would be too large.
         if n <= params.max_leaf {
             return;
         }
-        (axis, n / 2)
+        n / 2
     } else {
         let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, params) } else { None };
         match sah {
-            Some(split) => split,
+            Some(mid) => mid,
             None if n <= params.max_leaf => return,
-            None => {
-                items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-                (axis, n / 2)
-            }
+            None => median_split(items, &cb),
         }
     };
-    finish_inner(items, nodes, me, first, depth, params, axis, mid)
+    finish_inner(items, nodes, me, first, depth, params, mid)
+}
+
+/// Puts the half of `items` with the smaller centroids along the centroids' longest axis first.
+fn median_split(items: &mut [BuildItem], cb: &Aabb) -> usize {
+    let (axis, n) = (cb.longest_axis(), items.len());
+    items.select_nth_unstable_by(n / 2, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+    n / 2
 }
 
 /// Builds both children of node `me` from `items` split at `mid`, side by side at the end of `nodes`,
 /// and makes `me` an inner node pointing at the first.
-#[allow(clippy::too_many_arguments)]
 fn finish_inner(
     items: &mut [BuildItem],
     nodes: &mut Vec<Node>,
@@ -139,7 +127,6 @@ fn finish_inner(
     first: usize,
     depth: usize,
     params: &Params,
-    axis: usize,
     mid: usize,
 ) {
     let left = nodes.len();
@@ -150,17 +137,16 @@ fn finish_inner(
     let node = &mut nodes[me];
     node.offset = left as u32;
     node.count = 0;
-    node.axis = axis as u16;
 }
 
-pub(super) const PLACEHOLDER: Node = Node { min: [0.0; 3], offset: 0, max: [0.0; 3], count: 0, axis: 0 };
+const PLACEHOLDER: Node = Node { min: [0.0; 3], offset: 0, max: [0.0; 3], count: 0 };
 
 /// Largest leaf of the course's build.
 const MIDPOINT_LEAF: usize = 2;
 
 /// The course's split: the midpoint of the node's largest axis; if every centroid falls on one side,
 /// the mean of the centroids on that axis; if they all coincide, half of the primitives each side.
-fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> (usize, usize) {
+fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> usize {
     let n = items.len();
     let axis = bounds.longest_axis();
     let partition = |items: &mut [BuildItem], at: f32| {
@@ -182,12 +168,12 @@ fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> (usize, 
         // All centroids coincide: no position separates them.
         mid = n / 2;
     }
-    (axis, mid)
+    mid
 }
 
 /// Partitions `items` at the cheapest SAH bin boundary of the three axes; `None` if a leaf is cheaper.
-/// Returns the axis and the number of items put on its lower side.
-fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params) -> Option<(usize, usize)> {
+/// Returns the number of items put on the lower side.
+fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params) -> Option<usize> {
     let blocks = |n: usize| n.div_ceil(params.block) as f32;
     let n = items.len();
     let bin_of = |c: Vec3A, axis: usize, lo: f32, scale: f32| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
@@ -246,5 +232,5 @@ fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params)
             mid += 1;
         }
     }
-    (mid > 0 && mid < n).then_some((axis, mid))
+    (mid > 0 && mid < n).then_some(mid)
 }

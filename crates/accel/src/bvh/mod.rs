@@ -9,7 +9,7 @@ mod wide;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
-use raylume_geometry::{Aabb, Interval, Ray, Triangle};
+use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
 use triangles::{LANES, Packet, candidates};
 use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
@@ -78,18 +78,20 @@ impl<P: Intersect + Clone> Bvh<P> {
         let triangles = (!tri_items.is_empty()).then(|| {
             let bin = build_binary(&mut tri_items, method, LANES, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
-            let tree = WideTree::collapse(&bin.nodes, |first, count| {
-                let lanes: Vec<(Triangle, u32)> =
-                    tri_items[first..first + count].iter().map(|it| tris[it.index as usize]).collect();
+            let tree = WideTree::collapse(&bin, |first, count| {
                 let start = packets.len();
-                packets.extend(lanes.chunks(LANES).map(Packet::new));
+                packets.extend(
+                    tri_items[first..first + count]
+                        .chunks(LANES)
+                        .map(|chunk| Packet::new(chunk.iter().map(|it| tris[it.index as usize]))),
+                );
                 leaf_ref(start, count)
             });
             (tree, packets)
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
-            let tree = WideTree::collapse(&bin.nodes, leaf_ref);
+            let tree = WideTree::collapse(&bin, leaf_ref);
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
             let prims = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
@@ -114,6 +116,12 @@ fn leaf_candidates(packets: &[Packet], first: usize, count: usize, ray: &Sheared
     lanes
 }
 
+/// The packet and lane of bit `bit` of [`leaf_candidates`]' mask.
+#[inline(always)]
+fn packet_lane(first: usize, bit: u32) -> (usize, u32) {
+    (first + bit as usize / LANES, bit % LANES as u32)
+}
+
 /// Tests the leaf of `count` triangles in packets from `first` for the closest hit within `range`,
 /// keeping it in `found` (the hit, its packet and lane); returns the new end of the range.
 #[inline(always)]
@@ -127,7 +135,7 @@ fn closest_in_leaf(
 ) -> f32 {
     let mut lanes = leaf_candidates(packets, first, count, ray);
     while lanes != 0 {
-        let (p, lane) = (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
+        let (p, lane) = packet_lane(first, lanes.trailing_zeros());
         lanes &= lanes - 1;
         if let Some(h) = raylume_intersect::watertight_decide(&packets[p].triangle(lane), ray, range) {
             range = range.with_max(h.t);
@@ -142,7 +150,7 @@ fn closest_in_leaf(
 fn occluded_in_leaf(packets: &[Packet], first: usize, count: usize, ray: &ShearedRay, range: Interval) -> bool {
     let mut lanes = leaf_candidates(packets, first, count, ray);
     while lanes != 0 {
-        let (p, lane) = (first + lanes.trailing_zeros() as usize / LANES, lanes.trailing_zeros() % LANES as u32);
+        let (p, lane) = packet_lane(first, lanes.trailing_zeros());
         lanes &= lanes - 1;
         if raylume_intersect::watertight_hits(&packets[p].triangle(lane), ray, range) {
             return true;

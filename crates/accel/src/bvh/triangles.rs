@@ -24,11 +24,11 @@ pub(super) struct Packet {
 const _: () = assert!(std::mem::size_of::<Packet>() == 160);
 
 impl Packet {
-    /// A packet of 1 to 4 triangles with their ids; unused lanes repeat the first triangle.
-    pub fn new(tris: &[(Triangle, u32)]) -> Self {
+    /// A packet of the first four of `tris` with their ids; unused lanes hold zeros and no id (the
+    /// candidate mask leaves them out).
+    pub fn new(tris: impl IntoIterator<Item = (Triangle, u32)>) -> Self {
         let mut p = Self { v: [[[0.0; LANES]; 3]; 3], id: [NO_ID; LANES] };
-        for lane in 0..LANES {
-            let (t, id) = tris.get(lane).copied().unwrap_or((tris[0].0, NO_ID));
+        for (lane, (t, id)) in tris.into_iter().take(LANES).enumerate() {
             for (k, vertex) in t.p.iter().enumerate() {
                 for a in 0..3 {
                     p.v[k][a][lane] = vertex[a];
@@ -122,7 +122,7 @@ mod tests {
             let Some(sheared) = ShearedRay::new(&ray) else { return Ok(()) };
             let tris: Vec<(Triangle, u32)> =
                 verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), i as u32)).collect();
-            let packet = Packet::new(&tris);
+            let packet = Packet::new(tris.iter().copied());
             let mask = candidates(&packet, &sheared, tris.len());
             for (lane, (t, id)) in tris.iter().enumerate() {
                 prop_assert_eq!(packet.triangle(lane as u32), *t);
