@@ -36,33 +36,29 @@ impl ShearedRay {
     /// Prepares `ray`; `None` if its direction has no usable largest component (zero or not finite).
     #[inline]
     pub fn new(ray: &Ray) -> Option<Self> {
-        let d = ray.dir;
-        let ad = d.abs();
-        let kz = if ad.x > ad.y {
-            if ad.x > ad.z { 0 } else { 2 }
-        } else if ad.y > ad.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        if d[kz] == 0.0 || !d[kz].is_finite() {
+        // Without branches: rays in every direction would mispredict them.
+        let d = ray.dir.to_array();
+        let ad = d.map(f32::abs);
+        let (x_over_y, x_over_z, y_over_z) =
+            ((ad[0] > ad[1]) as usize, (ad[0] > ad[2]) as usize, (ad[1] > ad[2]) as usize);
+        let kz = x_over_y * (2 - 2 * x_over_z) + (1 - x_over_y) * (2 - y_over_z);
+        let (kx, ky) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let dz = d[kz];
+        let (kx, ky) = if dz < 0.0 { (ky, kx) } else { (kx, ky) };
+        if dz == 0.0 || !dz.is_finite() {
             return None;
         }
-        let sz = 1.0 / d[kz];
-        Some(Self { origin: ray.origin, dir: d, axes: [kx, ky, kz], shear: [d[kx] * sz, d[ky] * sz, sz] })
+        let sz = 1.0 / dz;
+        Some(Self { origin: ray.origin, dir: ray.dir, axes: [kx, ky, kz], shear: [d[kx] * sz, d[ky] * sz, sz] })
     }
 
     /// The vertex `p` in the ray's frame, as the test forms it: `(x, y)` sheared, `z` not yet scaled.
     #[inline]
     pub fn transform(&self, p: Vec3A) -> [f32; 3] {
-        let [kx, ky, kz] = self.axes;
+        // Array indices: a `Vec3A` index is a match on the axis.
+        let [kx, ky, kz] = self.axes.map(|k| k.min(2));
         let [sx, sy, _] = self.shear;
-        let a = p - self.origin;
+        let a = (p - self.origin).to_array();
         [a[kx] - sx * a[kz], a[ky] - sy * a[kz], a[kz]]
     }
 }

@@ -279,6 +279,28 @@ proptest! {
         }
     }
 
+    /// The ray's frame: `kz` is the axis of the largest |direction| (ties to the later axis), `kx`
+    /// and `ky` follow it cyclically and swap when the direction along `kz` is negative, so that the
+    /// sheared triangle keeps its winding; directions with many equal or zero components included.
+    #[test]
+    fn sheared_ray_frame(d in prop::array::uniform3(prop_oneof![Just(0.0f32), Just(1.0), Just(-1.0), -2.0f32..2.0])) {
+        use raylume_intersect::ShearedRay;
+        let dir = Vec3A::from_array(d);
+        let sheared = ShearedRay::new(&Ray::new(Vec3A::ZERO, dir));
+        let a = dir.abs();
+        let kz = if a.x > a.y { if a.x > a.z { 0 } else { 2 } } else if a.y > a.z { 1 } else { 2 };
+        if d[kz] == 0.0 {
+            prop_assert!(sheared.is_none());
+            return Ok(());
+        }
+        let s = sheared.unwrap();
+        let (kx, ky) = if d[kz] < 0.0 { ((kz + 2) % 3, (kz + 1) % 3) } else { ((kz + 1) % 3, (kz + 2) % 3) };
+        prop_assert_eq!(s.axes, [kx, ky, kz]);
+        prop_assert!((0..3).all(|k| a[kz] >= a[k]));
+        let sz = 1.0 / d[kz];
+        prop_assert_eq!(s.shear, [d[kx] * sz, d[ky] * sz, sz]);
+    }
+
     /// Sphere hits lie on the sphere within their error bound, at any scale and offset.
     #[test]
     fn sphere_points_within_error_bound(c in finite_vec(1e5), r in log_uniform(-3.0, 5.0), o in finite_vec(1.0), aim in finite_vec(1.0)) {

@@ -67,7 +67,8 @@ impl Packet {
 pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
     let [sx, sy, _] = ray.shear.map(Vec4::splat);
-    let (ox, oy, oz) = (Vec4::splat(ray.origin[kx]), Vec4::splat(ray.origin[ky]), Vec4::splat(ray.origin[kz]));
+    let o = ray.origin.to_array();
+    let (ox, oy, oz) = (Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz]));
     let sheared = |k: usize| {
         let az = Vec4::from_array(p.v[k][kz]) - oz;
         ((Vec4::from_array(p.v[k][kx]) - ox) - sx * az, (Vec4::from_array(p.v[k][ky]) - oy) - sy * az)

@@ -2,7 +2,7 @@
 //! build, and the ordered traversal shared by every kind of leaf.
 
 use glam::Vec4;
-use raylume_geometry::{Aabb, Ray};
+use raylume_geometry::{Aabb, Ray, Vec3A};
 
 use super::build::Node;
 use crate::Tally;
@@ -18,7 +18,8 @@ pub(super) const MAX_FIRST: u32 = (1 << COUNT_SHIFT) - 1;
 const EMPTY: u32 = u32::MAX;
 /// Traversal stack entries: three per level of a tree at most 70 levels deep.
 const STACK: usize = 256;
-/// The stack of trees at most 21 levels deep, which spares most queries clearing the large one.
+/// The stacks of trees at most 10 and 21 levels deep, which spare most queries clearing the large one.
+const SHORTEST_STACK: usize = 32;
 const SHORT_STACK: usize = 64;
 
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
@@ -77,28 +78,22 @@ pub(super) struct BoxRay {
 impl BoxRay {
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let mut r = Self {
+        // All three axes at once, without branches.
+        let d = ray.dir;
+        // Parallel: (min - o) * inf is +inf (a miss) when the origin is below the slab, and
+        // (max - o) * inf is -inf when above; on a face the product is NaN, which the comparisons of
+        // `intersect` ignore.
+        let parallel = d.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
+        let inv = Vec3A::ONE / d;
+        let inv_near = Vec3A::select(parallel, Vec3A::INFINITY, inv).to_array();
+        let inv_far = Vec3A::select(parallel, Vec3A::INFINITY, inv * WIDEN).to_array();
+        let negative = (d.cmplt(Vec3A::ZERO) & !parallel).bitmask();
+        Self {
             origin: ray.origin.to_array().map(Vec4::splat),
-            inv_near: [Vec4::ZERO; 3],
-            inv_far: [Vec4::ZERO; 3],
-            negative: [false; 3],
-        };
-        for a in 0..3 {
-            let d = ray.dir[a];
-            if d.abs() < f32::MIN_POSITIVE {
-                // Parallel: (min - o) * inf is +inf (a miss) when the origin is below the slab, and
-                // (max - o) * inf is -inf when above; on a face the product is NaN, which the
-                // comparisons of `intersect` ignore.
-                r.inv_near[a] = Vec4::INFINITY;
-                r.inv_far[a] = Vec4::INFINITY;
-            } else {
-                let inv = 1.0 / d;
-                r.inv_near[a] = Vec4::splat(inv);
-                r.inv_far[a] = Vec4::splat(inv * WIDEN);
-                r.negative[a] = d < 0.0;
-            }
+            inv_near: inv_near.map(Vec4::splat),
+            inv_far: inv_far.map(Vec4::splat),
+            negative: [negative & 1 != 0, negative & 2 != 0, negative & 4 != 0],
         }
-        r
     }
 
     /// The entry distances of the four children and the mask of those the ray meets within
@@ -209,7 +204,9 @@ impl WideTree {
         leaf: impl FnMut(u32, f32, &mut T) -> f32,
     ) {
         // Each level pushes at most three entries.
-        if 3 * self.depth < SHORT_STACK {
+        if 3 * self.depth < SHORTEST_STACK {
+            self.closest_with::<SHORTEST_STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
+        } else if 3 * self.depth < SHORT_STACK {
             self.closest_with::<SHORT_STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
         } else {
             self.closest_with::<STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
