@@ -226,14 +226,17 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
+        if let Some((tree, packets)) = &self.triangles {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
+            // Prepared at the first leaf: many rays reach none.
+            let mut sheared = None;
             tree.closest(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 for _ in 0..count {
                     tally.tested();
                 }
-                closest_in_leaf(packets, first, count, &sheared, t_range.with_max(t_max), &mut found)
+                let Some(sheared) = sheared.get_or_insert_with(|| ShearedRay::new(ray)) else { return t_max };
+                closest_in_leaf(packets, first, count, sheared, t_range.with_max(t_max), &mut found)
             });
             if let Some((h, packet, lane)) = found {
                 let packet = &packets[packet as usize];
@@ -254,14 +257,16 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             return true;
         }
         let box_ray = BoxRay::new(ray);
-        if let (Some((tree, packets)), Some(sheared)) = (&self.triangles, ShearedRay::new(ray)) {
+        if let Some((tree, packets)) = &self.triangles {
             let range = Interval::new(0.0, t_max);
+            let mut sheared = None;
             let hit = tree.any(&box_ray, t_max, tally, |leaf, tally| {
                 let (first, count) = leaf_range(leaf);
                 for _ in 0..count {
                     tally.tested();
                 }
-                occluded_in_leaf(packets, first, count, &sheared, range)
+                let Some(sheared) = sheared.get_or_insert_with(|| ShearedRay::new(ray)) else { return false };
+                occluded_in_leaf(packets, first, count, sheared, range)
             });
             if hit {
                 return true;
