@@ -203,26 +203,33 @@ impl WideTree {
         tally: &mut T,
         leaf: impl FnMut(u32, f32, &mut T) -> f32,
     ) {
-        // Each level pushes at most three entries.
-        if 3 * self.depth < SHORTEST_STACK {
-            self.closest_with::<SHORTEST_STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
+        // Each level pushes at most three entries. One walk for every stack size, so that the leaf
+        // test has one call site (and is inlined).
+        let mut short = [(0u32, 0.0f32); SHORTEST_STACK];
+        let mut medium;
+        let mut long;
+        let stack: &mut [(u32, f32)] = if 3 * self.depth < SHORTEST_STACK {
+            &mut short
         } else if 3 * self.depth < SHORT_STACK {
-            self.closest_with::<SHORT_STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
+            medium = [(0u32, 0.0f32); SHORT_STACK];
+            &mut medium
         } else {
-            self.closest_with::<STACK, ANY, T>(ray, t_min, t_max, tally, leaf)
-        }
+            long = [(0u32, 0.0f32); STACK];
+            &mut long
+        };
+        self.walk::<ANY, T>(stack, ray, t_min, t_max, tally, leaf)
     }
 
     #[inline(always)]
-    fn closest_with<const N: usize, const ANY: bool, T: Tally>(
+    fn walk<const ANY: bool, T: Tally>(
         &self,
+        stack: &mut [(u32, f32)],
         ray: &BoxRay,
         t_min: f32,
         mut t_max: f32,
         tally: &mut T,
         mut leaf: impl FnMut(u32, f32, &mut T) -> f32,
     ) {
-        let mut stack = [(0u32, 0.0f32); N];
         let mut sp = 0;
         let mut cur = self.root;
         loop {
