@@ -10,53 +10,17 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
+mod common;
+
+use common::{Obvhs, to_obvhs, to_obvhs_triangles};
 use criterion::{BenchmarkId, Criterion, Throughput};
-use glam::Vec3A;
-use obvhs::cwbvh::{CwBvh, builder::build_cwbvh_from_tris};
-use obvhs::ray::{Ray as ORay, RayHit};
-use obvhs::rt_triangle::RtTriangle;
-use obvhs::{BvhBuildParams, triangle::Triangle as OTriangle};
+use obvhs::ray::Ray as ORay;
 use raylume_accel::{Accelerator, Bvh};
 use raylume_compare::{Workload, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
 
 const MESHES: [&str; 3] = ["bunny", "bunny_loop2", "bunny_loop3"];
-
-/// obvhs's structure with its triangles laid out in leaf order (its fastest documented layout).
-struct Obvhs {
-    bvh: CwBvh,
-    tris: Vec<RtTriangle>,
-}
-
-impl Obvhs {
-    fn build(tris: &[OTriangle]) -> Self {
-        let bvh = build_cwbvh_from_tris(tris, BvhBuildParams::medium_build(), &mut Duration::default());
-        let tris = bvh.primitive_indices.iter().map(|&i| RtTriangle::from(&tris[i as usize])).collect();
-        Self { bvh, tris }
-    }
-
-    fn closest(&self, ray: &ORay) -> Option<(f32, u32)> {
-        let mut hit = RayHit::none();
-        self.bvh
-            .ray_traverse(*ray, &mut hit, |r, id| self.tris[id].intersect(r))
-            .then(|| (hit.t, self.bvh.primitive_indices[hit.primitive_id as usize]))
-    }
-
-    fn occluded(&self, ray: &ORay) -> bool {
-        !self.bvh.ray_traverse_miss(*ray, |r, id| self.tris[id].intersect(r))
-    }
-
-    fn bytes(&self) -> usize {
-        std::mem::size_of_val(self.bvh.nodes.as_slice())
-            + std::mem::size_of_val(self.bvh.primitive_indices.as_slice())
-            + std::mem::size_of_val(self.tris.as_slice())
-    }
-}
-
-fn to_obvhs(r: &Ray) -> ORay {
-    ORay::new_inf(Vec3A::from(r.origin.to_array()), Vec3A::from(r.dir.to_array()))
-}
 
 fn main() {
     let since = SystemTime::now();
@@ -98,14 +62,7 @@ struct Note {
 
 fn measure(c: &mut Criterion, w: &Workload) -> Note {
     let prims: Vec<Primitive> = w.triangles.iter().map(|&t| Primitive::Triangle(t)).collect();
-    let otris: Vec<OTriangle> = w
-        .triangles
-        .iter()
-        .map(|t| {
-            let [v0, v1, v2] = t.p.map(|p| Vec3A::from(p.to_array()));
-            OTriangle { v0, v1, v2 }
-        })
-        .collect();
+    let otris = to_obvhs_triangles(&w.triangles);
     let shutter = Interval::new(0.0, 0.0);
 
     let mut group = c.benchmark_group(format!("{}/build", w.name));
