@@ -9,7 +9,8 @@
 //! `RAYLUME_SPLIT_ONCE=camera-hit` (or `camera-miss`, `random-hit`, `random-miss`) instead runs
 //! raylume's closest-hit and occlusion queries once over that subset of the first mesh and exits: a
 //! fixed workload for `valgrind --tool=callgrind --branch-sim=yes`, whose instruction and
-//! mispredicted-branch counts do not move with the machine's load.
+//! mispredicted-branch counts do not move with the machine's load (`RAYLUME_SPLIT_QUERY=closest` or
+//! `occluded` runs only that query).
 
 mod common;
 
@@ -68,8 +69,17 @@ fn main() {
                 let name = format!("{kind}-{subset}");
                 if let Some(once) = &once {
                     if *once == name {
-                        let closest = set.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count();
-                        let occluded = set.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count();
+                        let query = std::env::var("RAYLUME_SPLIT_QUERY").unwrap_or_default();
+                        let closest = if query == "occluded" {
+                            0
+                        } else {
+                            set.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count()
+                        };
+                        let occluded = if query == "closest" {
+                            0
+                        } else {
+                            set.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count()
+                        };
                         println!("{} rays: {closest} hit, {occluded} occluded", set.len());
                         return;
                     }
