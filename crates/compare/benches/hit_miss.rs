@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use common::{Obvhs, to_obvhs, to_obvhs_triangles};
 use raylume_accel::{Accelerator, Bvh, Counts};
-use raylume_compare::{Workload, shared_meshes};
+use raylume_compare::{load_shared, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
 
@@ -52,13 +52,7 @@ fn main() {
         println!("|---|---|---|---|---|---|---|---|---|---|");
     }
     for mesh in meshes {
-        let w = match Workload::load(&dir.join(format!("{mesh}.obj")), side) {
-            Ok(w) => w,
-            Err(e) => {
-                eprintln!("skipped {mesh}: {e}");
-                continue;
-            }
-        };
+        let Some(w) = load_shared(&dir, &mesh, side) else { continue };
         let prims: Vec<Primitive> = w.triangles.iter().map(|&t| Primitive::Triangle(t)).collect();
         let ours = Bvh::new(prims, Interval::new(0.0, 0.0));
         let theirs = Obvhs::build(&to_obvhs_triangles(&w.triangles));

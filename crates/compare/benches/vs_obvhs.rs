@@ -16,7 +16,7 @@ use common::{Obvhs, to_obvhs, to_obvhs_triangles};
 use criterion::{BenchmarkId, Criterion, Throughput};
 use obvhs::ray::Ray as ORay;
 use raylume_accel::{Accelerator, Bvh};
-use raylume_compare::{Workload, shared_meshes};
+use raylume_compare::{Workload, load_shared, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
 
@@ -36,13 +36,7 @@ fn main() {
         .configure_from_args();
     let mut notes = Vec::new();
     for mesh in MESHES {
-        let w = match Workload::load(&dir.join(format!("{mesh}.obj")), side) {
-            Ok(w) => w,
-            Err(e) => {
-                eprintln!("skipped {mesh}: {e}");
-                continue;
-            }
-        };
+        let Some(w) = load_shared(&dir, mesh, side) else { continue };
         notes.push(measure(&mut c, &w));
     }
     c.final_summary();

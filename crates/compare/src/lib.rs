@@ -49,6 +49,12 @@ impl Workload {
     }
 }
 
+/// The workload of the shared mesh `name` (`dir/name.obj`) with `side * side` rays of each kind, or
+/// `None` after saying on stderr why it is skipped.
+pub fn load_shared(dir: &Path, name: &str, side: u32) -> Option<Workload> {
+    Workload::load(&dir.join(format!("{name}.obj")), side).map_err(|e| eprintln!("skipped {name}: {e}")).ok()
+}
+
 /// The shared meshes directory (`../shared/meshes` beside the repository), if present.
 pub fn shared_meshes() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
