@@ -186,7 +186,7 @@ impl<P: Intersect> Bvh<P> {
             }
         }
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest(box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
+            tree.closest::<false, _>(box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
                 for i in first..first + count {
@@ -230,7 +230,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
             // Prepared at the first leaf: many rays reach none.
             let mut sheared = None;
-            tree.closest(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
+            tree.closest::<false, _>(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 for _ in 0..count {
                     tally.tested();

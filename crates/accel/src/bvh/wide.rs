@@ -179,23 +179,10 @@ impl WideTree {
     }
 
     /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
-    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`.
+    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`; with
+    /// `ANY`, the walk stops as soon as it returns a `t_max` below `t_min`.
     #[inline(always)]
-    pub fn closest<T: Tally>(
-        &self,
-        ray: &BoxRay,
-        t_min: f32,
-        t_max: f32,
-        tally: &mut T,
-        leaf: impl FnMut(u32, f32, &mut T) -> f32,
-    ) {
-        self.visit::<false, T>(ray, t_min, t_max, tally, leaf)
-    }
-
-    /// [`WideTree::closest`]; with `ANY`, the walk stops as soon as `leaf` returns a `t_max` below
-    /// `t_min`.
-    #[inline(always)]
-    fn visit<const ANY: bool, T: Tally>(
+    pub fn closest<const ANY: bool, T: Tally>(
         &self,
         ray: &BoxRay,
         t_min: f32,
@@ -312,7 +299,7 @@ impl WideTree {
         mut leaf: impl FnMut(u32, &mut T) -> bool,
     ) -> bool {
         let mut hit = false;
-        self.visit::<true, T>(ray, 0.0, t_max, tally, |r, t, tally| {
+        self.closest::<true, T>(ray, 0.0, t_max, tally, |r, t, tally| {
             if leaf(r, tally) {
                 hit = true;
                 f32::NEG_INFINITY
