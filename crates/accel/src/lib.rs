@@ -121,6 +121,44 @@ pub trait Accelerator: Sync + Send {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         self.occluded_tally(ray, t_max, &mut ())
     }
+
+    /// The closest hit of each of `rays` with `t` in `t_range`, into `hits`: `hits[i]` is
+    /// [`closest_hit`](Accelerator::closest_hit) of `rays[i]`. Structures that share work between rays
+    /// travelling together override it: pass coherent rays (the primary rays of a tile) in runs.
+    ///
+    /// ```
+    /// use raylume_accel::{Accelerator, Bvh};
+    /// use raylume_geometry::{Interval, Ray, Triangle, Vec3A};
+    /// use raylume_intersect::Primitive;
+    /// let wall = Triangle::new(Vec3A::new(-9.0, -9.0, 5.0), Vec3A::new(9.0, -9.0, 5.0), Vec3A::new(0.0, 9.0, 5.0));
+    /// let bvh = Bvh::new(vec![Primitive::Triangle(wall)], Interval::new(0.0, 0.0));
+    /// let rays: Vec<Ray> = (0..16).map(|i| Ray::new(Vec3A::ZERO, Vec3A::new(0.01 * i as f32, 0.02, 1.0))).collect();
+    /// let mut hits = vec![None; rays.len()];
+    /// bvh.closest_hits(&rays, Interval::POSITIVE, &mut hits);
+    /// assert!(hits.iter().zip(&rays).all(|(h, r)| *h == bvh.closest_hit(r, Interval::POSITIVE)));
+    /// ```
+    ///
+    /// # Panics
+    /// If `hits` is not as long as `rays`.
+    fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
+        assert_eq!(rays.len(), hits.len(), "one answer per ray");
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.closest_hit(ray, t_range);
+        }
+    }
+
+    /// Whether each of `rays` is occluded within `(0, t_max)`, into `occluded`: `occluded[i]` is
+    /// [`occluded`](Accelerator::occluded) of `rays[i]`. Overridden like
+    /// [`closest_hits`](Accelerator::closest_hits).
+    ///
+    /// # Panics
+    /// If `occluded` is not as long as `rays`.
+    fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "one answer per ray");
+        for (ray, o) in rays.iter().zip(occluded) {
+            *o = self.occluded(ray, t_max);
+        }
+    }
 }
 
 /// Which accelerator to build, chosen at run time.

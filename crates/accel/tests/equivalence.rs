@@ -273,3 +273,102 @@ fn tessellated_cube(centre: Vec3A, half: f32, n: u32) -> Vec<Triangle> {
     }
     tris
 }
+
+/// A tile of `side x side` rays from `origin` (jittered by up to `lens` for a thin lens) through a
+/// grid of targets `spacing` apart around `aim`: the rays `closest_hits` and `occluded_each` take
+/// together.
+fn tile(rng: &mut Pcg32, origin: Vec3A, aim: Vec3A, spacing: f32, lens: f32, side: usize) -> Vec<Ray> {
+    (0..side * side)
+        .map(|i| {
+            let (x, y) = ((i % side) as f32, (i / side) as f32);
+            let o = origin + Vec3A::new(uniform(rng) - 0.5, uniform(rng) - 0.5, 0.0) * lens;
+            let target = aim + Vec3A::new(x * spacing, y * spacing, (x - y) * spacing * 0.3);
+            Ray::with_time(o, (target - o).normalize(), uniform(rng))
+        })
+        .collect()
+}
+
+/// The batch queries answer every ray as the single-ray ones do, on closed meshes among other
+/// shapes: tiles of neighbouring rays (one origin, or a lens's), tiles wide enough to straddle
+/// leaves and the mesh's silhouette, batches longer and shorter than a packet, and incoherent
+/// batches (directions of mixed signs, axis-parallel rays) that take the single-ray path.
+#[test]
+fn batches_match_single_rays() {
+    let mut rng = Pcg32::new(5, 77);
+    let mut hits = 0;
+    for n in [0usize, 7, 300] {
+        let mut prims = random_scene(&mut rng, n);
+        if n == 7 {
+            prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -12.0, 0.0), normal: Vec3A::Y }));
+        }
+        for c in 0..3 {
+            let centre = point(&mut rng, 6.0);
+            prims.extend(
+                tessellated_cube(centre, 1.0 + 3.0 * uniform(&mut rng), 4 + 3 * c).into_iter().map(Primitive::Triangle),
+            );
+        }
+        let shutter = Interval::new(0.0, 1.0);
+        let bvh = Bvh::new(prims.clone(), shutter);
+        let grid = Grid::new(prims.clone(), shutter, GridParams::default());
+        for b in 0..120 {
+            let origin = point(&mut rng, 18.0);
+            let aim = point(&mut rng, 6.0);
+            let spacing = [0.002, 0.05, 0.4][b % 3];
+            let lens = if b % 4 == 0 { 0.5 } else { 0.0 };
+            let side = [8, 5, 11][b % 3];
+            let mut rays = tile(&mut rng, origin, aim, spacing, lens, side);
+            if b % 10 == 0 {
+                // An incoherent batch, with rays along the axes.
+                rays.push(Ray::new(origin, Vec3A::X));
+                rays.push(Ray::new(origin, -Vec3A::Y));
+                rays.push(Ray::new(origin, (aim - origin).normalize() * Vec3A::new(1.0, -1.0, 1.0)));
+            }
+            let t_range = if b % 5 == 0 { Interval::new(0.5, 25.0) } else { Interval::POSITIVE };
+            let t_max = uniform(&mut rng) * 40.0;
+            let mut got = vec![None; rays.len()];
+            let mut occluded = vec![false; rays.len()];
+            for (name, accel) in [("bvh", &bvh as &dyn BatchQueries), ("grid", &grid)] {
+                accel.batch_closest(&rays, t_range, &mut got);
+                accel.batch_occluded(&rays, t_max, &mut occluded);
+                for (i, ray) in rays.iter().enumerate() {
+                    let expected = accel.single_closest(ray, t_range);
+                    assert!(
+                        same_hit(&prims, ray, expected, got[i]),
+                        "{name}: single {expected:?} vs batch {:?} for {ray:?}",
+                        got[i]
+                    );
+                    assert_eq!(
+                        occluded[i],
+                        accel.single_occluded(ray, t_max),
+                        "{name}: occlusion of {ray:?} before {t_max}"
+                    );
+                    hits += got[i].is_some() as usize;
+                }
+            }
+        }
+    }
+    assert!(hits > 5000, "the rays must hit things: {hits}");
+}
+
+/// The batch and single-ray queries of an accelerator, as an object.
+trait BatchQueries {
+    fn batch_closest(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]);
+    fn batch_occluded(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]);
+    fn single_closest(&self, ray: &Ray, t_range: Interval) -> Option<PrimitiveHit>;
+    fn single_occluded(&self, ray: &Ray, t_max: f32) -> bool;
+}
+
+impl<A: Accelerator> BatchQueries for A {
+    fn batch_closest(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
+        self.closest_hits(rays, t_range, hits)
+    }
+    fn batch_occluded(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
+        self.occluded_each(rays, t_max, occluded)
+    }
+    fn single_closest(&self, ray: &Ray, t_range: Interval) -> Option<PrimitiveHit> {
+        self.closest_hit(ray, t_range)
+    }
+    fn single_occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        Accelerator::occluded(self, ray, t_max)
+    }
+}

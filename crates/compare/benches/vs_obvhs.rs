@@ -16,7 +16,7 @@ use common::{Obvhs, to_obvhs, to_obvhs_triangles};
 use criterion::{BenchmarkId, Criterion, Throughput};
 use obvhs::ray::Ray as ORay;
 use raylume_accel::{Accelerator, Bvh};
-use raylume_compare::{Workload, load_shared, shared_meshes};
+use raylume_compare::{Workload, in_tiles, load_shared, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
 
@@ -69,6 +69,37 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
     let theirs = Obvhs::build(&otris);
     let mut agreement = [String::new(), String::new()];
     for (k, (kind, rays)) in [("camera", &w.camera), ("random", &w.random)].into_iter().enumerate() {
+        // The same rays in tiles of 8x8 through raylume's batch queries (obvhs has none: its rows take
+        // the rays one by one, in the same order).
+        let tiles = in_tiles(rays, w.side, 8);
+        let otiles: Vec<ORay> = tiles.iter().map(to_obvhs).collect();
+        let batch = format!("{kind}-batch");
+        let mut group = c.benchmark_group(format!("{}/closest", w.name));
+        group.throughput(Throughput::Elements(rays.len() as u64));
+        let mut hits = vec![None; tiles.len()];
+        group.bench_with_input(BenchmarkId::new("raylume", &batch), &tiles, |b, rays| {
+            b.iter(|| {
+                ours.closest_hits(rays, Interval::POSITIVE, &mut hits);
+                hits.iter().filter(|h| h.is_some()).count()
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("obvhs", &batch), &otiles, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.closest(r).is_some()).count())
+        });
+        group.finish();
+        let mut group = c.benchmark_group(format!("{}/occluded", w.name));
+        group.throughput(Throughput::Elements(rays.len() as u64));
+        let mut occluded = vec![false; tiles.len()];
+        group.bench_with_input(BenchmarkId::new("raylume", &batch), &tiles, |b, rays| {
+            b.iter(|| {
+                ours.occluded_each(rays, f32::INFINITY, &mut occluded);
+                occluded.iter().filter(|&&o| o).count()
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("obvhs", &batch), &otiles, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.occluded(r)).count())
+        });
+        group.finish();
         let orays: Vec<ORay> = rays.iter().map(to_obvhs).collect();
         agreement[k] = agree(&ours, &theirs, rays, &orays);
         let mut group = c.benchmark_group(format!("{}/closest", w.name));
@@ -147,7 +178,7 @@ fn print_table(notes: &[Note], since: SystemTime) {
     println!("|---|---|---|---|---|---|");
     for n in notes {
         for query in ["closest", "occluded"] {
-            for kind in ["camera", "random"] {
+            for kind in ["camera", "camera-batch", "random", "random-batch"] {
                 let ours = median_ns(&format!("{}_{query}/raylume/{kind}", n.mesh), since);
                 let theirs = median_ns(&format!("{}_{query}/obvhs/{kind}", n.mesh), since);
                 if let (Some(a), Some(b)) = (ours, theirs) {

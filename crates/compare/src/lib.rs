@@ -17,7 +17,9 @@ pub struct Workload {
     pub name: String,
     /// The triangles, in file order.
     pub triangles: Vec<Triangle>,
-    /// Primary rays: a pinhole view of `side x side` pixels filling the frame.
+    /// The view's side in pixels.
+    pub side: usize,
+    /// Primary rays: a pinhole view of `side x side` pixels filling the frame, row by row.
     pub camera: Vec<Ray>,
     /// Incoherent rays, as many as the primary ones.
     pub random: Vec<Ray>,
@@ -42,11 +44,28 @@ impl Workload {
         let name = mesh.file_stem().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
         Ok(Self {
             name,
+            side: side as usize,
             camera: rays::camera_rays(&scene.view, count),
             random: rays::random_rays(&bounds, count, 1),
             triangles,
         })
     }
+}
+
+/// The rays of a row-major `side x side` view reordered tile by tile (`tile x tile` pixels, the
+/// tiles row-major, a short last row and column where `tile` does not divide `side`): the order in
+/// which a renderer hands a batch query runs of neighbouring primary rays.
+pub fn in_tiles(rays: &[Ray], side: usize, tile: usize) -> Vec<Ray> {
+    assert_eq!(rays.len(), side * side, "a square view");
+    let mut out = Vec::with_capacity(rays.len());
+    for ty in (0..side).step_by(tile) {
+        for tx in (0..side).step_by(tile) {
+            for y in ty..(ty + tile).min(side) {
+                out.extend_from_slice(&rays[y * side + tx..y * side + (tx + tile).min(side)]);
+            }
+        }
+    }
+    out
 }
 
 /// The workload of the shared mesh `name` (`dir/name.obj`) with `side * side` rays of each kind, or

@@ -4,6 +4,7 @@
 //! unbounded ones (planes) outside both.
 
 mod build;
+mod stream;
 mod triangles;
 mod wide;
 
@@ -21,6 +22,15 @@ const MAX_LEAF: usize = 4;
 /// Largest leaf of triangles: two packets.
 const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 
+/// The triangles' tree: its nodes, the triangles in packets (in leaf order) and each leaf's box, kept
+/// at the leaf's first packet (the packet walk tests it for four rays at a time).
+#[derive(Clone, Debug)]
+struct Triangles {
+    tree: WideTree,
+    packets: Vec<Packet>,
+    leaf_bounds: Vec<[f32; 6]>,
+}
+
 /// A BVH over primitives.
 ///
 /// ```
@@ -37,7 +47,7 @@ const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 /// ```
 #[derive(Clone, Debug)]
 pub struct Bvh<P> {
-    triangles: Option<(WideTree, Vec<Packet>)>,
+    triangles: Option<Triangles>,
     others: Option<(WideTree, Vec<P>, Vec<u32>)>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
@@ -78,27 +88,30 @@ impl<P: Intersect + Clone> Bvh<P> {
         let triangles = (!tri_items.is_empty()).then(|| {
             let bin = build_binary(&mut tri_items, method, LANES, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
-            let tree = WideTree::collapse(&bin, |first, count| {
+            let mut leaf_bounds = Vec::with_capacity(packets.capacity());
+            let tree = WideTree::collapse(&bin, |first, count, bounds| {
                 let start = packets.len();
                 packets.extend(
                     tri_items[first..first + count]
                         .chunks(LANES)
                         .map(|chunk| Packet::new(chunk.iter().map(|it| tris[it.index as usize]))),
                 );
+                let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
+                leaf_bounds.resize(packets.len(), [min[0], min[1], min[2], max[0], max[1], max[2]]);
                 leaf_ref(start, count)
             });
-            (tree, packets)
+            Triangles { tree, packets, leaf_bounds }
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
-            let tree = WideTree::collapse(&bin, leaf_ref);
+            let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
             let prims = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
         });
         let bounds = triangles
             .iter()
-            .map(|(t, _)| t.bounds())
+            .map(|t| t.tree.bounds())
             .chain(others.iter().map(|(t, _, _)| t.bounds()))
             .fold(Aabb::EMPTY, Aabb::union);
         Self { triangles, others, unbounded, bounds }
@@ -162,7 +175,7 @@ fn occluded_in_leaf(packets: &[Packet], first: usize, count: usize, ray: &Sheare
 impl<P> Bvh<P> {
     /// Number of nodes in the trees.
     pub fn node_count(&self) -> usize {
-        self.triangles.as_ref().map_or(0, |(t, _)| t.node_count())
+        self.triangles.as_ref().map_or(0, |t| t.tree.node_count())
             + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
     }
 }
@@ -216,6 +229,58 @@ impl<P: Intersect> Bvh<P> {
     }
 }
 
+impl<P: Intersect> Bvh<P> {
+    /// [`Accelerator::closest_hits`] for a packet of rays with the directions' signs `negative`.
+    fn closest_packet(
+        &self,
+        tris: &Triangles,
+        rays: &[Ray],
+        negative: [bool; 3],
+        t_range: Interval,
+        hits: &mut [Option<PrimitiveHit>],
+    ) {
+        // The other shapes ray by ray: their hits bound the triangles' walk.
+        let mut t_max = [t_range.max; stream::PACKET];
+        if self.others.is_some() || !self.unbounded.is_empty() {
+            for ((ray, hit), t) in rays.iter().zip(hits.iter_mut()).zip(&mut t_max) {
+                *hit = self.closest_other(ray, &BoxRay::new(ray), t_range, &mut ());
+                *t = hit.map_or(t_range.max, |h| h.hit.t);
+            }
+        } else {
+            hits.fill(None);
+        }
+        let mut found = [None; stream::PACKET];
+        let Triangles { tree, packets, leaf_bounds } = tris;
+        let n = rays.len();
+        stream::closest(tree, packets, leaf_bounds, rays, negative, t_range.min, &t_max[..n], &mut found[..n]);
+        for (hit, found) in hits.iter_mut().zip(found) {
+            if let Some((h, packet, lane)) = found {
+                let packet = &packets[packet as usize];
+                *hit = Some(PrimitiveHit { hit: h.hit(&packet.triangle(lane)), primitive: packet.id(lane) });
+            }
+        }
+    }
+
+    /// [`Accelerator::occluded_each`] for a packet of rays with the directions' signs `negative`.
+    fn occluded_packet(&self, tris: &Triangles, rays: &[Ray], negative: [bool; 3], t_max: f32, occluded: &mut [bool]) {
+        // Planes first, as the single-ray query does; rays they occlude leave the walk.
+        let mut ends = [t_max; stream::PACKET];
+        for ((ray, o), end) in rays.iter().zip(occluded.iter_mut()).zip(&mut ends) {
+            *o = self.unbounded.iter().any(|(p, _)| p.occluded(ray, t_max));
+            if *o {
+                *end = f32::NEG_INFINITY;
+            }
+        }
+        let Triangles { tree, packets, leaf_bounds } = tris;
+        stream::occluded(tree, packets, leaf_bounds, rays, negative, &ends[..rays.len()], occluded);
+        if self.others.is_some() {
+            for (ray, o) in rays.iter().zip(occluded) {
+                *o = *o || self.occluded_other(ray, &BoxRay::new(ray), t_max, &mut ());
+            }
+        }
+    }
+}
+
 impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         if !ray.is_valid() {
@@ -226,7 +291,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some((tree, packets)) = &self.triangles {
+        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
             // Prepared at the first leaf: many rays reach none.
             let mut sheared = None;
@@ -257,7 +322,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             return true;
         }
         let box_ray = BoxRay::new(ray);
-        if let Some((tree, packets)) = &self.triangles {
+        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
             let range = Interval::new(0.0, t_max);
             let mut sheared = None;
             let hit = tree.any(&box_ray, t_max, tally, |leaf, tally| {
@@ -275,6 +340,38 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         self.occluded_other(ray, &box_ray, t_max, tally)
     }
 
+    fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
+        assert_eq!(rays.len(), hits.len(), "one answer per ray");
+        for (rays, hits) in rays.chunks(stream::PACKET).zip(hits.chunks_mut(stream::PACKET)) {
+            match (&self.triangles, stream::common_signs(rays)) {
+                (Some(tris), Some(negative)) if !t_range.min.is_nan() && !t_range.max.is_nan() => {
+                    self.closest_packet(tris, rays, negative, t_range, hits)
+                }
+                _ => {
+                    for (ray, hit) in rays.iter().zip(hits) {
+                        *hit = self.closest_hit(ray, t_range);
+                    }
+                }
+            }
+        }
+    }
+
+    fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
+        assert_eq!(rays.len(), occluded.len(), "one answer per ray");
+        for (rays, occluded) in rays.chunks(stream::PACKET).zip(occluded.chunks_mut(stream::PACKET)) {
+            match (&self.triangles, stream::common_signs(rays)) {
+                (Some(tris), Some(negative)) if !t_max.is_nan() => {
+                    self.occluded_packet(tris, rays, negative, t_max, occluded)
+                }
+                _ => {
+                    for (ray, o) in rays.iter().zip(occluded) {
+                        *o = self.occluded(ray, t_max);
+                    }
+                }
+            }
+        }
+    }
+
     fn bounds(&self) -> Aabb {
         self.bounds
     }
@@ -282,8 +379,10 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn stats(&self) -> AccelStats {
         let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
         let mut primitives = self.unbounded.len();
-        if let Some((tree, packets)) = &self.triangles {
-            bytes += tree.bytes() + std::mem::size_of_val(packets.as_slice());
+        if let Some(Triangles { tree, packets, leaf_bounds }) = &self.triangles {
+            bytes += tree.bytes()
+                + std::mem::size_of_val(packets.as_slice())
+                + std::mem::size_of_val(leaf_bounds.as_slice());
             primitives += packets.iter().map(Packet::len).sum::<usize>();
         }
         if let Some((tree, prims, ids)) = &self.others {

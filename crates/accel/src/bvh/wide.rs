@@ -25,8 +25,9 @@ const SHORT_STACK: usize = 64;
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
 const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
 
-/// One node: the boxes of its four children, stored by plane (`bounds[0..3]` the minima along x, y,
-/// z, `bounds[3..6]` the maxima, one lane per child) so that one ray tests all four together.
+/// One node: the boxes of its four children, stored by plane (`bounds[2 a]` the minima along axis
+/// `a`, `bounds[2 a + 1]` the maxima, one lane per child) so that one ray tests all four together,
+/// picking each axis's near plane by index rather than by branch or select.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct WideNode {
@@ -39,10 +40,10 @@ const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
 const EMPTY_NODE: WideNode = WideNode {
     bounds: [
         Vec4::INFINITY,
-        Vec4::INFINITY,
+        Vec4::NEG_INFINITY,
         Vec4::INFINITY,
         Vec4::NEG_INFINITY,
-        Vec4::NEG_INFINITY,
+        Vec4::INFINITY,
         Vec4::NEG_INFINITY,
     ],
     child: [EMPTY; WIDTH],
@@ -75,6 +76,107 @@ pub(super) struct BoxRay {
     negative: [bool; 3],
 }
 
+/// The box test of a node's four children, by one ray ([`BoxRay`]) or by a packet of rays
+/// ([`Frustum`]): the entry distances of the children and the mask of those met within
+/// `[t_min, t_max]`.
+pub(super) trait NodeTest {
+    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32);
+}
+
+impl NodeTest for BoxRay {
+    #[inline(always)]
+    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
+        self.intersect(node, t_min, t_max)
+    }
+}
+
+/// The reciprocals of a direction as [`BoxRay`] takes them for the near and the far planes; the
+/// direction must not be parallel to any axis.
+#[inline(always)]
+pub(super) fn reciprocals(dir: Vec3A) -> (Vec3A, Vec3A) {
+    let inv = Vec3A::ONE / dir;
+    (inv, inv * WIDEN)
+}
+
+/// Whether `dir` can join a packet: no component zero or subnormal (parallel to a slab).
+#[inline(always)]
+pub(super) fn crosses_every_slab(dir: Vec3A) -> bool {
+    dir.abs().cmpge(Vec3A::splat(f32::MIN_POSITIVE)).all()
+}
+
+/// A packet of rays prepared for box tests by interval arithmetic: per axis, the range of the rays'
+/// origins and of their reciprocal directions. A box that any ray of the packet meets passes
+/// ([`BoxRay`]'s test of each ray is bounded by this one: rounding is monotone), so a walk with it
+/// reaches every node that one of the rays would reach, and some more.
+///
+/// The rays' directions have the same sign along each axis and cross every slab
+/// ([`crosses_every_slab`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Frustum {
+    /// The origin coordinate that gives the smallest entry distance (the largest along the
+    /// direction), and the one that gives the largest exit distance.
+    near_origin: [Vec4; 3],
+    far_origin: [Vec4; 3],
+    /// The smallest and largest reciprocal of the near planes, then of the far ones.
+    inv_near: [[Vec4; 2]; 3],
+    inv_far: [[Vec4; 2]; 3],
+    negative: [bool; 3],
+}
+
+impl Frustum {
+    /// The packet of `rays` (at least one), whose directions all have the signs `negative` and cross
+    /// every slab.
+    pub fn new(rays: &[Ray], negative: [bool; 3]) -> Self {
+        let (mut o_min, mut o_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        let (mut near_min, mut near_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        let (mut far_min, mut far_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        for ray in rays {
+            o_min = o_min.min(ray.origin);
+            o_max = o_max.max(ray.origin);
+            let (near, far) = reciprocals(ray.dir);
+            near_min = near_min.min(near);
+            near_max = near_max.max(near);
+            far_min = far_min.min(far);
+            far_max = far_max.max(far);
+        }
+        let (o_min, o_max) = (o_min.to_array(), o_max.to_array());
+        let (near_min, near_max, far_min, far_max) =
+            (near_min.to_array(), near_max.to_array(), far_min.to_array(), far_max.to_array());
+        // Along a positive direction the entry distance falls as the origin moves up the axis; along a
+        // negative one, as it moves down.
+        let pick = |a: usize, up: bool| Vec4::splat(if up { o_max[a] } else { o_min[a] });
+        Self {
+            near_origin: [0, 1, 2].map(|a| pick(a, !negative[a])),
+            far_origin: [0, 1, 2].map(|a| pick(a, negative[a])),
+            inv_near: [0, 1, 2].map(|a| [Vec4::splat(near_min[a]), Vec4::splat(near_max[a])]),
+            inv_far: [0, 1, 2].map(|a| [Vec4::splat(far_min[a]), Vec4::splat(far_max[a])]),
+            negative,
+        }
+    }
+}
+
+impl NodeTest for Frustum {
+    #[inline(always)]
+    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
+        let mut near = Vec4::splat(t_min);
+        let mut far = Vec4::splat(t_max);
+        for a in 0..3 {
+            let neg = self.negative[a] as usize;
+            let (lo, hi) = (node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
+            let [n0, n1] = self.inv_near[a];
+            let [f0, f1] = self.inv_far[a];
+            // The product's extremes over the reciprocals' range are at its ends.
+            let x = lo - self.near_origin[a];
+            let tn = (x * n0).min(x * n1);
+            let x = hi - self.far_origin[a];
+            let tf = (x * f0).max(x * f1);
+            near = tn.max(near);
+            far = tf.min(far);
+        }
+        (near, near.cmple(far).bitmask())
+    }
+}
+
 impl BoxRay {
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
@@ -84,9 +186,9 @@ impl BoxRay {
         // (max - o) * inf is -inf when above; on a face the product is NaN, which the comparisons of
         // `intersect` ignore.
         let parallel = d.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
-        let inv = Vec3A::ONE / d;
+        let (inv, inv_far) = reciprocals(d);
         let inv_near = Vec3A::select(parallel, Vec3A::INFINITY, inv).to_array();
-        let inv_far = Vec3A::select(parallel, Vec3A::INFINITY, inv * WIDEN).to_array();
+        let inv_far = Vec3A::select(parallel, Vec3A::INFINITY, inv_far).to_array();
         let negative = (d.cmplt(Vec3A::ZERO) & !parallel).bitmask();
         Self {
             origin: ray.origin.to_array().map(Vec4::splat),
@@ -103,11 +205,9 @@ impl BoxRay {
         let mut near = Vec4::splat(t_min);
         let mut far = Vec4::splat(t_max);
         for a in 0..3 {
-            let (lo, hi) = if self.negative[a] {
-                (node.bounds[a + 3], node.bounds[a])
-            } else {
-                (node.bounds[a], node.bounds[a + 3])
-            };
+            // A bool indexes without a bounds check: the planes' offsets are the ray's, not the node's.
+            let neg = self.negative[a] as usize;
+            let (lo, hi) = (node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
             let tn = (lo - self.origin[a]) * self.inv_near[a];
             let tf = (hi - self.origin[a]) * self.inv_far[a];
             // maxps/minps return their second operand when either is NaN: a NaN product leaves the
@@ -150,8 +250,8 @@ pub(super) struct WideTree {
 impl WideTree {
     /// Collapses the binary tree `bin` (non-empty): each wide node takes the binary node's children
     /// and opens the largest inner ones until it has four. `leaf` turns a binary leaf's item range
-    /// into a leaf reference.
-    pub fn collapse(bin: &[Node], mut leaf: impl FnMut(usize, usize) -> u32) -> Self {
+    /// and box into a leaf reference.
+    pub fn collapse(bin: &[Node], mut leaf: impl FnMut(usize, usize, Aabb) -> u32) -> Self {
         let mut nodes = Vec::with_capacity(bin.len() / 2 + 1);
         let root = collapse_node(bin, 0, &mut nodes, &mut leaf);
         let mut tree = Self { nodes, root, bounds: bin[0].aabb(), depth: 0 };
@@ -184,7 +284,7 @@ impl WideTree {
     #[inline(always)]
     pub fn closest<const ANY: bool, T: Tally>(
         &self,
-        ray: &BoxRay,
+        ray: &impl NodeTest,
         t_min: f32,
         t_max: f32,
         tally: &mut T,
@@ -211,7 +311,7 @@ impl WideTree {
     fn walk<const ANY: bool, T: Tally>(
         &self,
         stack: &mut [(u32, f32)],
-        ray: &BoxRay,
+        ray: &impl NodeTest,
         t_min: f32,
         mut t_max: f32,
         tally: &mut T,
@@ -293,7 +393,7 @@ impl WideTree {
     #[inline(always)]
     pub fn any<T: Tally>(
         &self,
-        ray: &BoxRay,
+        ray: &impl NodeTest,
         t_max: f32,
         tally: &mut T,
         mut leaf: impl FnMut(u32, &mut T) -> bool,
@@ -311,10 +411,15 @@ impl WideTree {
     }
 }
 
-fn collapse_node(bin: &[Node], b: usize, out: &mut Vec<WideNode>, leaf: &mut impl FnMut(usize, usize) -> u32) -> u32 {
+fn collapse_node(
+    bin: &[Node],
+    b: usize,
+    out: &mut Vec<WideNode>,
+    leaf: &mut impl FnMut(usize, usize, Aabb) -> u32,
+) -> u32 {
     let node = &bin[b];
     if node.count > 0 {
-        return leaf(node.offset as usize, node.count as usize);
+        return leaf(node.offset as usize, node.count as usize, node.aabb());
     }
     let mut children = [0usize; WIDTH];
     children[0] = node.offset as usize;
@@ -337,8 +442,8 @@ fn collapse_node(bin: &[Node], b: usize, out: &mut Vec<WideNode>, leaf: &mut imp
     for (slot, &c) in children[..n].iter().enumerate() {
         let b = &bin[c];
         for a in 0..3 {
-            wide.bounds[a][slot] = b.min[a];
-            wide.bounds[a + 3][slot] = b.max[a];
+            wide.bounds[2 * a][slot] = b.min[a];
+            wide.bounds[2 * a + 1][slot] = b.max[a];
         }
         wide.child[slot] = collapse_node(bin, c, out, leaf);
     }

@@ -1,0 +1,180 @@
+//! Packets of coherent rays (the primary rays of a tile, say) walked down the triangle tree together:
+//! one box test per node for the whole packet ([`Frustum`]), then at each leaf the leaf's box tested
+//! for four rays at a time and the leaf's triangles tested for each ray that meets the box, exactly as
+//! that ray alone would test them. Every ray gets the answer of the single-ray query.
+
+use glam::Vec4;
+use raylume_geometry::{Interval, Ray, Vec3A};
+use raylume_intersect::{ShearedRay, TriangleHit};
+
+use super::triangles::Packet;
+use super::wide::{Frustum, WideTree, crosses_every_slab, leaf_range, reciprocals};
+use super::{closest_in_leaf, occluded_in_leaf};
+
+/// Rays per packet.
+pub(super) const PACKET: usize = 64;
+/// Groups of four rays per packet.
+const GROUPS: usize = PACKET / 4;
+
+/// The signs of the directions of `rays` along each axis, if every ray can be traced and they agree
+/// (and cross every slab): the rays that can share a [`Frustum`].
+pub(super) fn common_signs(rays: &[Ray]) -> Option<[bool; 3]> {
+    let first = rays.first()?;
+    let signs = first.dir.cmplt(Vec3A::ZERO).bitmask();
+    rays.iter()
+        .all(|r| r.is_valid() && crosses_every_slab(r.dir) && r.dir.cmplt(Vec3A::ZERO).bitmask() == signs)
+        .then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
+}
+
+/// Four rays of a packet, lane by lane, for the box test of a leaf: each lane's answer is the one
+/// [`BoxRay`](super::wide::BoxRay) gives that ray, with the same operations.
+#[derive(Clone, Copy, Debug)]
+struct RayGroup {
+    origin: [Vec4; 3],
+    inv_near: [Vec4; 3],
+    inv_far: [Vec4; 3],
+}
+
+impl RayGroup {
+    /// The group of `rays` (one to four; missing lanes repeat the first ray).
+    fn new(rays: &[Ray]) -> Self {
+        let lane = |i: usize| rays.get(i).unwrap_or(&rays[0]);
+        let mut g = Self { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] };
+        for i in 0..4 {
+            let ray = lane(i);
+            let (near, far) = reciprocals(ray.dir);
+            let (o, near, far) = (ray.origin.to_array(), near.to_array(), far.to_array());
+            for a in 0..3 {
+                g.origin[a][i] = o[a];
+                g.inv_near[a][i] = near[a];
+                g.inv_far[a][i] = far[a];
+            }
+        }
+        g
+    }
+
+    /// The lanes whose ray meets the box with near planes `near` and far planes `far` (by the rays'
+    /// common signs) within `[t_min, t_max]`, lane by lane.
+    #[inline(always)]
+    fn hits(&self, near_plane: [Vec4; 3], far_plane: [Vec4; 3], t_min: Vec4, t_max: Vec4) -> u32 {
+        let (mut near, mut far) = (t_min, t_max);
+        for a in 0..3 {
+            let tn = (near_plane[a] - self.origin[a]) * self.inv_near[a];
+            let tf = (far_plane[a] - self.origin[a]) * self.inv_far[a];
+            near = tn.max(near);
+            far = tf.min(far);
+        }
+        near.cmple(far).bitmask()
+    }
+}
+
+/// A packet's rays and what the walk keeps for each of them.
+struct Rays<'a> {
+    rays: &'a [Ray],
+    groups: [RayGroup; GROUPS],
+    /// Each ray's end of range: it shrinks with the hits found; `-inf` retires the ray.
+    t_max: [f32; PACKET],
+    /// Each ray's watertight frame, prepared at its first leaf (`Some(None)`: the ray has none).
+    sheared: [Option<Option<ShearedRay>>; PACKET],
+}
+
+impl<'a> Rays<'a> {
+    fn new(rays: &'a [Ray], t_max: &[f32]) -> Self {
+        let mut groups =
+            [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
+        for (g, chunk) in groups.iter_mut().zip(rays.chunks(4)) {
+            *g = RayGroup::new(chunk);
+        }
+        let mut ends = [f32::NEG_INFINITY; PACKET];
+        ends[..rays.len()].copy_from_slice(t_max);
+        Self { rays, groups, t_max: ends, sheared: [None; PACKET] }
+    }
+
+    /// The largest end of range: no node entered beyond it can hold a closer hit for any ray.
+    fn t_max(&self) -> f32 {
+        self.t_max[..self.rays.len()].iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t))
+    }
+
+    /// Calls `test(i, sheared ray, t_max)` for each ray `i` that meets the leaf's box `bounds` within
+    /// `[t_min, t_max[i]]` and sets its `t_max` to what `test` returns; returns the new largest one.
+    #[inline(always)]
+    fn each_in_box(
+        &mut self,
+        bounds: &[f32; 6],
+        negative: [bool; 3],
+        t_min: f32,
+        mut test: impl FnMut(usize, &ShearedRay, f32) -> f32,
+    ) -> f32 {
+        let plane = |a: usize, far: bool| Vec4::splat(bounds[3 * (negative[a] != far) as usize + a]);
+        let near_plane = [plane(0, false), plane(1, false), plane(2, false)];
+        let far_plane = [plane(0, true), plane(1, true), plane(2, true)];
+        let t_min_lanes = Vec4::splat(t_min);
+        let mut largest = Vec4::NEG_INFINITY;
+        for g in 0..self.rays.len().div_ceil(4) {
+            let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
+            let mut lanes = self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends);
+            while lanes != 0 {
+                let i = 4 * g + lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let ray = &self.rays[i];
+                self.t_max[i] = match self.sheared[i].get_or_insert_with(|| ShearedRay::new(ray)) {
+                    Some(sheared) => test(i, sheared, self.t_max[i]),
+                    None => f32::NEG_INFINITY,
+                };
+            }
+            largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
+        }
+        largest.max_element()
+    }
+}
+
+/// The closest triangle hit of each ray of the packet `rays` (signs `negative`, see [`common_signs`])
+/// within `[t_min, t_max[i]]`, kept in `found[i]` as [`closest_in_leaf`] keeps it.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn closest(
+    tree: &WideTree,
+    packets: &[Packet],
+    leaf_bounds: &[[f32; 6]],
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_min: f32,
+    t_max: &[f32],
+    found: &mut [Option<(TriangleHit, u32, u32)>],
+) {
+    let frustum = Frustum::new(rays, negative);
+    let mut state = Rays::new(rays, t_max);
+    let start = state.t_max();
+    tree.closest::<false, _>(&frustum, t_min, start, &mut (), |leaf, _, _| {
+        let (first, count) = leaf_range(leaf);
+        state.each_in_box(&leaf_bounds[first], negative, t_min, |i, sheared, t_max| {
+            closest_in_leaf(packets, first, count, sheared, Interval::new(t_min, t_max), &mut found[i])
+        })
+    });
+}
+
+/// Whether each ray of the packet `rays` (signs `negative`) hits a triangle within `(0, t_max[i])`:
+/// sets `occluded[i]` for those that do.
+pub(super) fn occluded(
+    tree: &WideTree,
+    packets: &[Packet],
+    leaf_bounds: &[[f32; 6]],
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_max: &[f32],
+    occluded: &mut [bool],
+) {
+    let frustum = Frustum::new(rays, negative);
+    let mut state = Rays::new(rays, t_max);
+    let start = state.t_max();
+    tree.closest::<true, _>(&frustum, 0.0, start, &mut (), |leaf, _, _| {
+        let (first, count) = leaf_range(leaf);
+        state.each_in_box(&leaf_bounds[first], negative, 0.0, |i, sheared, t_max| {
+            if occluded_in_leaf(packets, first, count, sheared, Interval::new(0.0, t_max)) {
+                occluded[i] = true;
+                f32::NEG_INFINITY
+            } else {
+                t_max
+            }
+        })
+    });
+}
