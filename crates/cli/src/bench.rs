@@ -11,6 +11,11 @@ use rayon::prelude::*;
 
 use crate::{Failure, bad_input};
 
+/// The side of the tiles the camera rays are ordered in for `--batch`, and the runs handed to
+/// threads: one packet of the BVH's batch queries.
+const BATCH_TILE: usize = 8;
+const BATCH_RUN: usize = BATCH_TILE * BATCH_TILE;
+
 /// Which rays to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum RayKind {
@@ -28,6 +33,8 @@ pub struct BenchArgs {
     pub rays: RayKind,
     pub count: usize,
     pub seed: u64,
+    /// Trace through the batch queries (camera rays in tiles).
+    pub batch: bool,
     pub read_rays: Option<PathBuf>,
     pub write_rays: Option<PathBuf>,
     pub write_hits: Option<PathBuf>,
@@ -56,6 +63,11 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
                 .map_err(|e| bad_input(format!("{}: {e}", path.display())))?
         }
         None => match args.rays {
+            RayKind::Camera if args.batch => {
+                let camera = rays::camera_rays(&args.scene.view, args.count);
+                let side = (camera.len() as f64).sqrt().round() as usize;
+                rays::in_tiles(&camera, side, BATCH_TILE)
+            }
             RayKind::Camera => rays::camera_rays(&args.scene.view, args.count),
             RayKind::Random => rays::random_rays(&accel.bounds(), args.count, args.seed),
         },
@@ -70,21 +82,50 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
     let threads = rayon::current_num_threads();
     let trace = |ray: &Ray| accel.closest_hit(ray, Interval::POSITIVE).map(|h| (h.hit.t, h.primitive));
     let mut best_closest = f64::INFINITY;
-    let mut hits = Vec::new();
+    let mut hits = vec![None; rays.len()];
+    let mut found = vec![None; rays.len()];
     for _ in 0..args.repeat.max(1) {
         let t = Instant::now();
-        hits = if threads == 1 { rays.iter().map(trace).collect() } else { rays.par_iter().map(trace).collect() };
+        if args.batch {
+            // Runs of one packet each, so that threads share the work as finely as single rays do.
+            let run = |(rays, found): (&[Ray], &mut [_])| accel.closest_hits(rays, Interval::POSITIVE, found);
+            if threads == 1 {
+                accel.closest_hits(&rays, Interval::POSITIVE, &mut found);
+            } else {
+                rays.par_chunks(BATCH_RUN).zip(found.par_chunks_mut(BATCH_RUN)).for_each(run);
+            }
+        } else if threads == 1 {
+            hits = rays.iter().map(trace).collect();
+        } else {
+            hits = rays.par_iter().map(trace).collect();
+        }
         best_closest = best_closest.min(t.elapsed().as_secs_f64());
+    }
+    if args.batch {
+        hits = found.iter().map(|h| h.map(|h: raylume_accel::PrimitiveHit| (h.hit.t, h.primitive))).collect();
     }
     let mut best_occluded = f64::INFINITY;
     let mut blocked = 0;
+    let mut occluded = vec![false; rays.len()];
     for _ in 0..args.repeat.max(1) {
         let t = Instant::now();
         let occ = |r: &Ray| accel.occluded(r, f32::INFINITY) as usize;
-        blocked = if threads == 1 { rays.iter().map(occ).sum() } else { rays.par_iter().map(occ).sum() };
+        blocked = if args.batch {
+            let run = |(rays, occluded): (&[Ray], &mut [bool])| accel.occluded_each(rays, f32::INFINITY, occluded);
+            if threads == 1 {
+                accel.occluded_each(&rays, f32::INFINITY, &mut occluded);
+            } else {
+                rays.par_chunks(BATCH_RUN).zip(occluded.par_chunks_mut(BATCH_RUN)).for_each(run);
+            }
+            occluded.iter().filter(|&&o| o).count()
+        } else if threads == 1 {
+            rays.iter().map(occ).sum()
+        } else {
+            rays.par_iter().map(occ).sum()
+        };
         best_occluded = best_occluded.min(t.elapsed().as_secs_f64());
     }
-    // Primitives tested per ray, in a separate counting pass.
+    // Primitives tested per ray, in a separate counting pass (single-ray queries, also for `--batch`).
     let mut work = Counts::default();
     for r in &rays {
         accel.closest_hit_tally(r, Interval::POSITIVE, &mut work);
@@ -105,9 +146,10 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
     println!("nodes               {}", stats.nodes);
     println!("bytes per primitive {:.1}", stats.bytes as f64 / n.max(1) as f64);
     println!(
-        "rays                {} ({:?}), {hit_count} hit, {blocked} occluded, {threads} thread(s)",
+        "rays                {} ({:?}{}), {hit_count} hit, {blocked} occluded, {threads} thread(s)",
         rays.len(),
-        args.rays
+        args.rays,
+        if args.batch { ", batch queries" } else { "" }
     );
     println!("closest hit         {:.3} Mrays/s", count / best_closest / 1e6);
     println!("occlusion           {:.3} Mrays/s", count / best_occluded / 1e6);

@@ -152,6 +152,9 @@ struct BenchCli {
     /// Seed of the random rays.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Trace the rays through the batch queries in runs of 64, the camera rays in tiles of 8x8.
+    #[arg(long)]
+    batch: bool,
     /// Trace the rays of this ray file instead.
     #[arg(long)]
     read_rays: Option<PathBuf>,
@@ -392,6 +395,7 @@ fn bench_command(args: BenchCli) -> Result<(), Failure> {
         rays: args.rays,
         count: args.count,
         seed: args.seed,
+        batch: args.batch,
         read_rays: args.read_rays,
         write_rays: args.write_rays,
         write_hits: args.write_hits,

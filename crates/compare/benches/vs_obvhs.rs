@@ -16,7 +16,7 @@ use common::{Obvhs, to_obvhs, to_obvhs_triangles};
 use criterion::{BenchmarkId, Criterion, Throughput};
 use obvhs::ray::Ray as ORay;
 use raylume_accel::{Accelerator, Bvh};
-use raylume_compare::{Workload, in_tiles, load_shared, shared_meshes};
+use raylume_compare::{Workload, load_shared, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
 
@@ -63,15 +63,20 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
     group.throughput(Throughput::Elements(prims.len() as u64));
     group.bench_function("raylume", |b| b.iter(|| Bvh::new(black_box(prims.clone()), shutter)));
     group.bench_function("obvhs", |b| b.iter(|| Obvhs::build(black_box(&otris))));
+
+    #[cfg(feature = "embree")]
+    group.bench_function("embree", |b| b.iter(|| common::Embree::build(black_box(&w.triangles))));
     group.finish();
 
     let ours = Bvh::new(prims.clone(), shutter);
     let theirs = Obvhs::build(&otris);
+    #[cfg(feature = "embree")]
+    let embree = common::Embree::build(&w.triangles);
     let mut agreement = [String::new(), String::new()];
     for (k, (kind, rays)) in [("camera", &w.camera), ("random", &w.random)].into_iter().enumerate() {
-        // The same rays in tiles of 8x8 through raylume's batch queries (obvhs has none: its rows take
-        // the rays one by one, in the same order).
-        let tiles = in_tiles(rays, w.side, 8);
+        // The same rays through raylume's batch queries, the camera's in tiles of 8x8 (obvhs has no
+        // batch query: its rows take the rays one by one, in the same order).
+        let tiles = if kind == "camera" { raylume_scene::rays::in_tiles(rays, w.side, 8) } else { rays.clone() };
         let otiles: Vec<ORay> = tiles.iter().map(to_obvhs).collect();
         let batch = format!("{kind}-batch");
         let mut group = c.benchmark_group(format!("{}/closest", w.name));
@@ -110,6 +115,10 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         group.bench_with_input(BenchmarkId::new("obvhs", kind), &orays, |b, rays| {
             b.iter(|| rays.iter().filter(|r| theirs.closest(r).is_some()).count())
         });
+        #[cfg(feature = "embree")]
+        group.bench_with_input(BenchmarkId::new("embree", kind), rays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| embree.closest(r).is_some()).count())
+        });
         group.finish();
         let mut group = c.benchmark_group(format!("{}/occluded", w.name));
         group.throughput(Throughput::Elements(rays.len() as u64));
@@ -118,6 +127,10 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         });
         group.bench_with_input(BenchmarkId::new("obvhs", kind), &orays, |b, rays| {
             b.iter(|| rays.iter().filter(|r| theirs.occluded(r)).count())
+        });
+        #[cfg(feature = "embree")]
+        group.bench_with_input(BenchmarkId::new("embree", kind), rays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| embree.occluded(r)).count())
         });
         group.finish();
     }
@@ -174,17 +187,22 @@ fn criterion_dir() -> PathBuf {
 }
 
 fn print_table(notes: &[Note], since: SystemTime) {
-    println!("\n| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "\n| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio | Embree Mrays/s | Embree/obvhs | raylume/Embree |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
     for n in notes {
         for query in ["closest", "occluded"] {
             for kind in ["camera", "camera-batch", "random", "random-batch"] {
-                let ours = median_ns(&format!("{}_{query}/raylume/{kind}", n.mesh), since);
-                let theirs = median_ns(&format!("{}_{query}/obvhs/{kind}", n.mesh), since);
-                if let (Some(a), Some(b)) = (ours, theirs) {
-                    let count = n.rays as f64;
-                    let (ma, mb) = (count / a * 1e3, count / b * 1e3);
-                    println!("| {} | {query} | {kind} | {ma:.2} | {mb:.2} | {:.2} |", n.mesh, ma / mb);
+                let mrays = |engine: &str| {
+                    // Embree's rows are single-ray: its batch row is the plain one's.
+                    let kind = if engine == "embree" { kind.trim_end_matches("-batch") } else { kind };
+                    median_ns(&format!("{}_{query}/{engine}/{kind}", n.mesh), since).map(|ns| n.rays as f64 / ns * 1e3)
+                };
+                if let (Some(a), Some(b)) = (mrays("raylume"), mrays("obvhs")) {
+                    let embree = mrays("embree")
+                        .map_or("- | - | -".to_owned(), |e| format!("{e:.2} | {:.2} | {:.2}", e / b, a / e));
+                    println!("| {} | {query} | {kind} | {a:.2} | {b:.2} | {:.2} | {embree} |", n.mesh, a / b);
                 }
             }
         }

@@ -52,22 +52,6 @@ impl Workload {
     }
 }
 
-/// The rays of a row-major `side x side` view reordered tile by tile (`tile x tile` pixels, the
-/// tiles row-major, a short last row and column where `tile` does not divide `side`): the order in
-/// which a renderer hands a batch query runs of neighbouring primary rays.
-pub fn in_tiles(rays: &[Ray], side: usize, tile: usize) -> Vec<Ray> {
-    assert_eq!(rays.len(), side * side, "a square view");
-    let mut out = Vec::with_capacity(rays.len());
-    for ty in (0..side).step_by(tile) {
-        for tx in (0..side).step_by(tile) {
-            for y in ty..(ty + tile).min(side) {
-                out.extend_from_slice(&rays[y * side + tx..y * side + (tx + tile).min(side)]);
-            }
-        }
-    }
-    out
-}
-
 /// The workload of the shared mesh `name` (`dir/name.obj`) with `side * side` rays of each kind, or
 /// `None` after saying on stderr why it is skipped.
 pub fn load_shared(dir: &Path, name: &str, side: u32) -> Option<Workload> {

@@ -36,6 +36,35 @@ pub fn camera_rays(view: &View, count: usize) -> Vec<Ray> {
     rays
 }
 
+/// The rays of a row-major `side x side` view (as [`camera_rays`] makes them) reordered tile by tile:
+/// `tile x tile` pixels, the tiles row-major, short tiles along the right and bottom edges where
+/// `tile` does not divide `side`. The order in which a renderer hands the batch queries
+/// ([`Accelerator::closest_hits`](raylume_accel::Accelerator::closest_hits)) runs of neighbouring rays.
+///
+/// ```
+/// use raylume_geometry::{Ray, Vec3A};
+/// use raylume_scene::rays::in_tiles;
+/// let rays: Vec<Ray> = (0..9).map(|i| Ray::new(Vec3A::ZERO, Vec3A::new(i as f32, 0.0, 1.0))).collect();
+/// let order: Vec<f32> = in_tiles(&rays, 3, 2).iter().map(|r| r.dir.x).collect();
+/// assert_eq!(order, [0.0, 1.0, 3.0, 4.0, 2.0, 5.0, 6.0, 7.0, 8.0]);
+/// ```
+///
+/// # Panics
+/// If `rays` does not hold `side * side` rays, or `tile` is 0.
+pub fn in_tiles(rays: &[Ray], side: usize, tile: usize) -> Vec<Ray> {
+    assert_eq!(rays.len(), side * side, "a square view");
+    assert!(tile > 0, "tiles of at least one pixel");
+    let mut out = Vec::with_capacity(rays.len());
+    for ty in (0..side).step_by(tile) {
+        for tx in (0..side).step_by(tile) {
+            for y in ty..(ty + tile).min(side) {
+                out.extend_from_slice(&rays[y * side + tx..y * side + (tx + tile).min(side)]);
+            }
+        }
+    }
+    out
+}
+
 /// Incoherent rays: origins uniform on the sphere of 1.5 times the bounding radius of `bounds`,
 /// aimed at uniform random points in `bounds`; the same for the same seed.
 pub fn random_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<Ray> {

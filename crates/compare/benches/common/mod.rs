@@ -57,3 +57,50 @@ pub fn to_obvhs_triangles(tris: &[Triangle]) -> Vec<OTriangle> {
         })
         .collect()
 }
+
+/// Embree 3's scene over the same triangles (default flags and medium build quality, one build
+/// thread), for the rows of the comparison that name it.
+#[cfg(feature = "embree")]
+pub struct Embree {
+    // The scene borrows the device's handle; both live as long as this.
+    scene: embree3::Scene<'static>,
+    _device: embree3::Device,
+}
+
+#[cfg(feature = "embree")]
+impl Embree {
+    pub fn build(tris: &[Triangle]) -> Self {
+        use embree3::{BufferUsage, Config, Device, Format, GeometryKind};
+        let device = Device::with_config(Config { threads: 1, ..Config::default() }).expect("an Embree device");
+        let mut mesh = device.create_geometry(GeometryKind::TRIANGLE).expect("a triangle geometry");
+        let vertices: Vec<[f32; 3]> = tris.iter().flat_map(|t| t.p.map(|p| p.to_array())).collect();
+        mesh.set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, vertices.len())
+            .expect("a vertex buffer")
+            .copy_from_slice(&vertices);
+        let indices: Vec<[u32; 3]> = (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        mesh.set_new_buffer::<[u32; 3]>(BufferUsage::INDEX, 0, Format::UINT3, 12, indices.len())
+            .expect("an index buffer")
+            .copy_from_slice(&indices);
+        let mesh = mesh.commit();
+        let mut scene = device.create_scene().expect("a scene");
+        scene.attach_geometry(&mesh);
+        scene.commit();
+        Self { scene, _device: device }
+    }
+
+    pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
+        let mut ctx = embree3::IntersectContext::incoherent();
+        let mut hit = embree3::RayHit::from(Self::ray(ray));
+        self.scene.intersect(&mut ctx, &mut hit);
+        hit.hit.is_valid().then_some((hit.ray.tfar, hit.hit.primID))
+    }
+
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let mut ctx = embree3::IntersectContext::incoherent();
+        self.scene.occluded(&mut ctx, &mut Self::ray(ray))
+    }
+
+    fn ray(r: &Ray) -> embree3::Ray {
+        embree3::Ray::segment(r.origin.to_array(), r.dir.to_array(), 0.0, f32::INFINITY)
+    }
+}
