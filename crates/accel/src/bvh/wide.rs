@@ -450,3 +450,63 @@ fn collapse_node(
     out[me] = wide;
     me as u32
 }
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    fn arb_vec(range: f32) -> impl Strategy<Value = Vec3A> {
+        prop::array::uniform3(-range..range).prop_map(Vec3A::from_array)
+    }
+
+    /// A node whose four children are the given boxes.
+    fn node_of(boxes: &[(Vec3A, Vec3A)]) -> WideNode {
+        let mut node = EMPTY_NODE;
+        for (slot, (a, b)) in boxes.iter().enumerate() {
+            let (lo, hi) = (a.min(*b).to_array(), a.max(*b).to_array());
+            for axis in 0..3 {
+                node.bounds[2 * axis][slot] = lo[axis];
+                node.bounds[2 * axis + 1][slot] = hi[axis];
+            }
+        }
+        node
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(5_000))]
+        /// A packet's box test passes every child that one of its rays passes, whatever the spread
+        /// of the rays' origins and directions (one sign per axis), with entry distances no larger.
+        #[test]
+        fn frustum_passes_what_any_ray_passes(
+            boxes in prop::collection::vec((arb_vec(10.0), arb_vec(10.0)), 1..=4),
+            origins in prop::collection::vec(arb_vec(20.0), 1..=8),
+            dirs in prop::collection::vec(prop::array::uniform3(0.0001f32..1.0), 1..=8),
+            signs in prop::array::uniform3(any::<bool>()),
+            spread in prop_oneof![Just(0.0f32), Just(1e-6), 0.0f32..1.0],
+            t_range in (0.0f32..5.0, prop_oneof![Just(f32::INFINITY), 0.0f32..50.0]),
+        ) {
+            let base = origins[0];
+            let rays: Vec<Ray> = dirs
+                .iter()
+                .zip(origins.iter().cycle())
+                .map(|(d, o)| {
+                    let d = Vec3A::from_array(*d) * Vec3A::from_array(signs.map(|s| if s { -1.0 } else { 1.0 }));
+                    Ray::new(base + (*o - base) * spread, d)
+                })
+                .collect();
+            let node = node_of(&boxes);
+            let (near, mask) = Frustum::new(&rays, signs).intersect(&node, t_range.0, t_range.1);
+            for ray in &rays {
+                let (ray_near, ray_mask) = BoxRay::new(ray).intersect(&node, t_range.0, t_range.1);
+                prop_assert_eq!(ray_mask & !mask, 0, "a child {:b} passed by {:?} but not by the packet {:b}", ray_mask, ray, mask);
+                for slot in 0..4 {
+                    if ray_mask & (1 << slot) != 0 {
+                        prop_assert!(near.to_array()[slot] <= ray_near.to_array()[slot]);
+                    }
+                }
+            }
+        }
+    }
+}
