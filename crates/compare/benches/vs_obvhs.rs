@@ -91,6 +91,13 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         group.bench_with_input(BenchmarkId::new("obvhs", &batch), &otiles, |b, rays| {
             b.iter(|| rays.iter().filter(|r| theirs.closest(r).is_some()).count())
         });
+        #[cfg(feature = "embree")]
+        {
+            let mut buffer = Vec::new();
+            group.bench_with_input(BenchmarkId::new("embree", &batch), &tiles, |b, rays| {
+                b.iter(|| embree.closest_stream(rays, kind == "camera", &mut buffer))
+            });
+        }
         group.finish();
         let mut group = c.benchmark_group(format!("{}/occluded", w.name));
         group.throughput(Throughput::Elements(rays.len() as u64));
@@ -104,9 +111,21 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         group.bench_with_input(BenchmarkId::new("obvhs", &batch), &otiles, |b, rays| {
             b.iter(|| rays.iter().filter(|r| theirs.occluded(r)).count())
         });
+        #[cfg(feature = "embree")]
+        {
+            let mut buffer = Vec::new();
+            group.bench_with_input(BenchmarkId::new("embree", &batch), &tiles, |b, rays| {
+                b.iter(|| embree.occluded_stream(rays, kind == "camera", &mut buffer))
+            });
+        }
         group.finish();
         let orays: Vec<ORay> = rays.iter().map(to_obvhs).collect();
-        agreement[k] = agree(&ours, &theirs, rays, &orays);
+        agreement[k] = agree(&ours, |i| theirs.closest(&orays[i]).map(|h| h.0), rays);
+        #[cfg(feature = "embree")]
+        {
+            let with_embree = agree(&ours, |i| embree.closest(&rays[i]).map(|h| h.0), rays);
+            agreement[k] = format!("obvhs: {}; Embree: {with_embree}", agreement[k]);
+        }
         let mut group = c.benchmark_group(format!("{}/closest", w.name));
         group.throughput(Throughput::Elements(rays.len() as u64));
         group.bench_with_input(BenchmarkId::new("raylume", kind), rays, |b, rays| {
@@ -144,13 +163,14 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
     }
 }
 
-/// How far the two engines agree: rays hit by one only, and hits whose distances differ by more than
-/// 1e-4 relative (the two triangle tests differ on edges: raylume's is watertight, obvhs's is not).
-fn agree(ours: &Bvh<Primitive>, theirs: &Obvhs, rays: &[Ray], orays: &[ORay]) -> String {
+/// How far raylume and another engine (`theirs(i)`: its hit distance for ray `i`) agree: rays hit by
+/// one only, and hits whose distances differ by more than 1e-4 relative (the triangle tests differ on
+/// edges: raylume's is watertight, the others' are not).
+fn agree(ours: &Bvh<Primitive>, theirs: impl Fn(usize) -> Option<f32>, rays: &[Ray]) -> String {
     let (mut both, mut only_ours, mut only_theirs, mut far) = (0, 0, 0, 0);
-    for (r, o) in rays.iter().zip(orays) {
-        match (ours.closest_hit(r, Interval::POSITIVE), theirs.closest(o)) {
-            (Some(a), Some((t, _))) => {
+    for (i, r) in rays.iter().enumerate() {
+        match (ours.closest_hit(r, Interval::POSITIVE), theirs(i)) {
+            (Some(a), Some(t)) => {
                 both += 1;
                 if (a.hit.t - t).abs() > 1e-4 * t.abs().max(1.0) {
                     far += 1;
@@ -161,7 +181,9 @@ fn agree(ours: &Bvh<Primitive>, theirs: &Obvhs, rays: &[Ray], orays: &[ORay]) ->
             (None, None) => {}
         }
     }
-    format!("{both} hit by both ({far} at another distance), {only_ours} by raylume only, {only_theirs} by obvhs only")
+    format!(
+        "{both} hit by both ({far} at another distance), {only_ours} by raylume only, {only_theirs} by the other only"
+    )
 }
 
 /// The median time of one criterion benchmark, from the estimates this run wrote (older estimates,
@@ -195,8 +217,6 @@ fn print_table(notes: &[Note], since: SystemTime) {
         for query in ["closest", "occluded"] {
             for kind in ["camera", "camera-batch", "random", "random-batch"] {
                 let mrays = |engine: &str| {
-                    // Embree's rows are single-ray: its batch row is the plain one's.
-                    let kind = if engine == "embree" { kind.trim_end_matches("-batch") } else { kind };
                     median_ns(&format!("{}_{query}/{engine}/{kind}", n.mesh), since).map(|ns| n.rays as f64 / ns * 1e3)
                 };
                 if let (Some(a), Some(b)) = (mrays("raylume"), mrays("obvhs")) {

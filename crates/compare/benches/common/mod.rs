@@ -100,6 +100,38 @@ impl Embree {
         self.scene.occluded(&mut ctx, &mut Self::ray(ray))
     }
 
+    /// The closest hits of `rays` through Embree's stream query (`rtcIntersect1M`) in runs of 64,
+    /// flagged coherent or not; returns how many hit.
+    pub fn closest_stream(&self, rays: &[Ray], coherent: bool, buffer: &mut Vec<embree3::RayHit>) -> usize {
+        let mut ctx = Self::context(coherent);
+        let mut hits = 0;
+        for run in rays.chunks(64) {
+            buffer.clear();
+            buffer.extend(run.iter().map(|r| embree3::RayHit::from(Self::ray(r))));
+            self.scene.intersect_stream_aos(&mut ctx, buffer);
+            hits += buffer.iter().filter(|h| h.hit.is_valid()).count();
+        }
+        hits
+    }
+
+    /// Occlusion of `rays` through Embree's stream query (`rtcOccluded1M`) in runs of 64; returns how
+    /// many are occluded (Embree sets an occluded ray's `tfar` to -inf).
+    pub fn occluded_stream(&self, rays: &[Ray], coherent: bool, buffer: &mut Vec<embree3::Ray>) -> usize {
+        let mut ctx = Self::context(coherent);
+        let mut occluded = 0;
+        for run in rays.chunks(64) {
+            buffer.clear();
+            buffer.extend(run.iter().map(Self::ray));
+            self.scene.occluded_stream_aos(&mut ctx, buffer);
+            occluded += buffer.iter().filter(|r| r.tfar == f32::NEG_INFINITY).count();
+        }
+        occluded
+    }
+
+    fn context(coherent: bool) -> embree3::IntersectContext {
+        if coherent { embree3::IntersectContext::coherent() } else { embree3::IntersectContext::incoherent() }
+    }
+
     fn ray(r: &Ray) -> embree3::Ray {
         embree3::Ray::segment(r.origin.to_array(), r.dir.to_array(), 0.0, f32::INFINITY)
     }
