@@ -128,6 +128,30 @@ impl<'a> Rays<'a> {
     }
 }
 
+/// Walks the packet `rays` (signs `negative`) down `tree`; at each leaf (first packet, triangle
+/// count) `test(i, first, count, sheared ray, t_max)` tests it for each ray `i` that meets its box and
+/// returns the ray's new `t_max` (`-inf` retires the ray). With `ANY`, the walk stops once every ray
+/// is retired.
+fn walk<const ANY: bool>(
+    tree: &WideTree,
+    leaf_bounds: &[[f32; 6]],
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_min: f32,
+    t_max: &[f32],
+    mut test: impl FnMut(usize, usize, usize, &ShearedRay, f32) -> f32,
+) {
+    let frustum = Frustum::new(rays, negative);
+    let mut state = Rays::new(rays, t_max);
+    let start = state.t_max();
+    tree.closest::<ANY, _>(&frustum, t_min, start, &mut (), |leaf, _, _| {
+        let (first, count) = leaf_range(leaf);
+        state.each_in_box(&leaf_bounds[first], negative, t_min, |i, sheared, t_max| {
+            test(i, first, count, sheared, t_max)
+        })
+    });
+}
+
 /// The closest triangle hit of each ray of the packet `rays` (signs `negative`, see [`common_signs`])
 /// within `[t_min, t_max[i]]`, kept in `found[i]` as [`closest_in_leaf`] keeps it.
 #[allow(clippy::too_many_arguments)]
@@ -141,14 +165,8 @@ pub(super) fn closest(
     t_max: &[f32],
     found: &mut [Option<(TriangleHit, u32, u32)>],
 ) {
-    let frustum = Frustum::new(rays, negative);
-    let mut state = Rays::new(rays, t_max);
-    let start = state.t_max();
-    tree.closest::<false, _>(&frustum, t_min, start, &mut (), |leaf, _, _| {
-        let (first, count) = leaf_range(leaf);
-        state.each_in_box(&leaf_bounds[first], negative, t_min, |i, sheared, t_max| {
-            closest_in_leaf(packets, first, count, sheared, Interval::new(t_min, t_max), &mut found[i])
-        })
+    walk::<false>(tree, leaf_bounds, rays, negative, t_min, t_max, |i, first, count, sheared, t_max| {
+        closest_in_leaf(packets, first, count, sheared, Interval::new(t_min, t_max), &mut found[i])
     });
 }
 
@@ -163,18 +181,12 @@ pub(super) fn occluded(
     t_max: &[f32],
     occluded: &mut [bool],
 ) {
-    let frustum = Frustum::new(rays, negative);
-    let mut state = Rays::new(rays, t_max);
-    let start = state.t_max();
-    tree.closest::<true, _>(&frustum, 0.0, start, &mut (), |leaf, _, _| {
-        let (first, count) = leaf_range(leaf);
-        state.each_in_box(&leaf_bounds[first], negative, 0.0, |i, sheared, t_max| {
-            if occluded_in_leaf(packets, first, count, sheared, Interval::new(0.0, t_max)) {
-                occluded[i] = true;
-                f32::NEG_INFINITY
-            } else {
-                t_max
-            }
-        })
+    walk::<true>(tree, leaf_bounds, rays, negative, 0.0, t_max, |i, first, count, sheared, t_max| {
+        if occluded_in_leaf(packets, first, count, sheared, Interval::new(0.0, t_max)) {
+            occluded[i] = true;
+            f32::NEG_INFINITY
+        } else {
+            t_max
+        }
     });
 }

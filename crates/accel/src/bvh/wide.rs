@@ -158,23 +158,40 @@ impl Frustum {
 impl NodeTest for Frustum {
     #[inline(always)]
     fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
-        let mut near = Vec4::splat(t_min);
-        let mut far = Vec4::splat(t_max);
-        for a in 0..3 {
-            let neg = self.negative[a] as usize;
-            let (lo, hi) = (node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
+        slabs(node, &self.negative, t_min, t_max, |a, lo, hi| {
             let [n0, n1] = self.inv_near[a];
             let [f0, f1] = self.inv_far[a];
             // The product's extremes over the reciprocals' range are at its ends.
             let x = lo - self.near_origin[a];
-            let tn = (x * n0).min(x * n1);
-            let x = hi - self.far_origin[a];
-            let tf = (x * f0).max(x * f1);
-            near = tn.max(near);
-            far = tf.min(far);
-        }
-        (near, near.cmple(far).bitmask())
+            let y = hi - self.far_origin[a];
+            ((x * n0).min(x * n1), (y * f0).max(y * f1))
+        })
     }
+}
+
+/// The slab test of a node's four children: `planes(axis, near planes, far planes)` gives the
+/// distances to each axis's planes (the near ones chosen by the signs `negative`); returns the entry
+/// distances and the mask of the children met within `[t_min, t_max]`.
+#[inline(always)]
+fn slabs(
+    node: &WideNode,
+    negative: &[bool; 3],
+    t_min: f32,
+    t_max: f32,
+    planes: impl Fn(usize, Vec4, Vec4) -> (Vec4, Vec4),
+) -> (Vec4, u32) {
+    let mut near = Vec4::splat(t_min);
+    let mut far = Vec4::splat(t_max);
+    for a in 0..3 {
+        // A bool indexes without a bounds check: the planes' offsets are the ray's, not the node's.
+        let neg = negative[a] as usize;
+        let (tn, tf) = planes(a, node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
+        // maxps/minps return their second operand when either is NaN: a NaN product leaves the
+        // bound as it was (glam's scalar fallback, f32::max/min, does the same).
+        near = tn.max(near);
+        far = tf.min(far);
+    }
+    (near, near.cmple(far).bitmask())
 }
 
 impl BoxRay {
@@ -202,20 +219,9 @@ impl BoxRay {
     /// `[t_min, t_max]`.
     #[inline(always)]
     fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
-        let mut near = Vec4::splat(t_min);
-        let mut far = Vec4::splat(t_max);
-        for a in 0..3 {
-            // A bool indexes without a bounds check: the planes' offsets are the ray's, not the node's.
-            let neg = self.negative[a] as usize;
-            let (lo, hi) = (node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
-            let tn = (lo - self.origin[a]) * self.inv_near[a];
-            let tf = (hi - self.origin[a]) * self.inv_far[a];
-            // maxps/minps return their second operand when either is NaN: a NaN product leaves the
-            // bound as it was (glam's scalar fallback, f32::max/min, does the same).
-            near = tn.max(near);
-            far = tf.min(far);
-        }
-        (near, near.cmple(far).bitmask())
+        slabs(node, &self.negative, t_min, t_max, |a, lo, hi| {
+            ((lo - self.origin[a]) * self.inv_near[a], (hi - self.origin[a]) * self.inv_far[a])
+        })
     }
 }
 

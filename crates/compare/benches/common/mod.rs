@@ -59,7 +59,8 @@ pub fn to_obvhs_triangles(tris: &[Triangle]) -> Vec<OTriangle> {
 }
 
 /// Embree 3's scene over the same triangles (default flags and medium build quality, one build
-/// thread), for the rows of the comparison that name it.
+/// thread), for the rows of the comparison that name it. Embree picks the widest kernels the CPU has;
+/// `RAYLUME_EMBREE_ISA=sse2|sse4.2|avx|avx2` caps them.
 #[cfg(feature = "embree")]
 pub struct Embree {
     // The scene borrows the device's handle; both live as long as this.
@@ -70,8 +71,15 @@ pub struct Embree {
 #[cfg(feature = "embree")]
 impl Embree {
     pub fn build(tris: &[Triangle]) -> Self {
-        use embree3::{BufferUsage, Config, Device, Format, GeometryKind};
-        let device = Device::with_config(Config { threads: 1, ..Config::default() }).expect("an Embree device");
+        use embree3::{BufferUsage, Config, Device, Format, GeometryKind, Isa};
+        let max_isa = match std::env::var("RAYLUME_EMBREE_ISA").as_deref() {
+            Ok("sse2") => Isa::Sse2,
+            Ok("sse4.2") => Isa::Sse4_2,
+            Ok("avx") => Isa::Avx,
+            Ok("avx2") => Isa::Avx2,
+            _ => Isa::Avx512,
+        };
+        let device = Device::with_config(Config { threads: 1, max_isa, ..Config::default() }).expect("an Embree device");
         let mut mesh = device.create_geometry(GeometryKind::TRIANGLE).expect("a triangle geometry");
         let vertices: Vec<[f32; 3]> = tris.iter().flat_map(|t| t.p.map(|p| p.to_array())).collect();
         mesh.set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, vertices.len())
