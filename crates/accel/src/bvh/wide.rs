@@ -182,9 +182,9 @@ fn slabs(
 ) -> (Vec4, u32) {
     let mut near = Vec4::splat(t_min);
     let mut far = Vec4::splat(t_max);
-    for a in 0..3 {
+    for (a, &negative) in negative.iter().enumerate() {
         // A bool indexes without a bounds check: the planes' offsets are the ray's, not the node's.
-        let neg = negative[a] as usize;
+        let neg = negative as usize;
         let (tn, tf) = planes(a, node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
         // maxps/minps return their second operand when either is NaN: a NaN product leaves the
         // bound as it was (glam's scalar fallback, f32::max/min, does the same).
