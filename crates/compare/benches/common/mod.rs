@@ -79,7 +79,8 @@ impl Embree {
             Ok("avx2") => Isa::Avx2,
             _ => Isa::Avx512,
         };
-        let device = Device::with_config(Config { threads: 1, max_isa, ..Config::default() }).expect("an Embree device");
+        let device =
+            Device::with_config(Config { threads: 1, max_isa, ..Config::default() }).expect("an Embree device");
         let mut mesh = device.create_geometry(GeometryKind::TRIANGLE).expect("a triangle geometry");
         let vertices: Vec<[f32; 3]> = tris.iter().flat_map(|t| t.p.map(|p| p.to_array())).collect();
         mesh.set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, vertices.len())
