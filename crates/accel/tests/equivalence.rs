@@ -372,3 +372,53 @@ impl<A: Accelerator> BatchQueries for A {
         Accelerator::occluded(self, ray, t_max)
     }
 }
+
+/// Batches agree with single rays at tiny and huge scales and far from the origin, where the packet's
+/// interval arithmetic overflows or underflows: closed meshes scaled by 1e-5 to 1e5 and moved by 1e3
+/// times their size, rays from a point and from a lens, grazing tiles included.
+#[test]
+fn batches_match_single_rays_at_extreme_scales() {
+    let mut rng = Pcg32::new(9, 31);
+    let mut hits = 0;
+    for scale in [1e-5f32, 1e-2, 1e3, 1e5] {
+        let offset = Vec3A::new(1e3, -2e3, 5e2) * scale;
+        let mut prims = Vec::new();
+        for c in 0..3 {
+            let centre = offset + point(&mut rng, 6.0) * scale;
+            prims.extend(
+                tessellated_cube(centre, scale * (1.0 + 2.0 * uniform(&mut rng)), 5 + 2 * c)
+                    .into_iter()
+                    .map(Primitive::Triangle),
+            );
+        }
+        let bvh = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
+        for b in 0..60 {
+            let origin = offset + point(&mut rng, 20.0) * scale;
+            let aim = offset + point(&mut rng, 6.0) * scale;
+            let spacing = [0.001, 0.05, 0.5][b % 3] * scale;
+            let lens = if b % 2 == 0 { 0.3 * scale } else { 0.0 };
+            let mut rays = tile(&mut rng, origin, aim, spacing, lens, 8);
+            if b % 6 == 0 {
+                // Grazing: rays nearly in the plane of a face.
+                let d = Vec3A::new(1.0, 1e-4 * uniform(&mut rng), 0.5 - uniform(&mut rng)).normalize();
+                rays.iter_mut().for_each(|r| r.dir = (d + r.dir * 1e-3).normalize());
+            }
+            let mut got = vec![None; rays.len()];
+            let mut occluded = vec![false; rays.len()];
+            bvh.closest_hits(&rays, Interval::POSITIVE, &mut got);
+            let t_max = 30.0 * scale;
+            bvh.occluded_each(&rays, t_max, &mut occluded);
+            for (i, ray) in rays.iter().enumerate() {
+                let expected = bvh.closest_hit(ray, Interval::POSITIVE);
+                assert!(
+                    same_hit(&prims, ray, expected, got[i]),
+                    "scale {scale}: single {expected:?} vs batch {:?}",
+                    got[i]
+                );
+                assert_eq!(occluded[i], bvh.occluded(ray, t_max), "scale {scale}: occlusion of {ray:?}");
+                hits += got[i].is_some() as usize;
+            }
+        }
+    }
+    assert!(hits > 2000, "the rays must hit things: {hits}");
+}
