@@ -142,9 +142,7 @@ pub trait Accelerator: Sync + Send {
     /// If `hits` is not as long as `rays`.
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
-        for (ray, hit) in rays.iter().zip(hits) {
-            *hit = self.closest_hit(ray, t_range);
-        }
+        closest_ray_by_ray(self, rays, t_range, hits);
     }
 
     /// Whether each of `rays` is occluded within `(0, t_max)`, into `occluded`: `occluded[i]` is
@@ -155,9 +153,27 @@ pub trait Accelerator: Sync + Send {
     /// If `occluded` is not as long as `rays`.
     fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
-        for (ray, o) in rays.iter().zip(occluded) {
-            *o = self.occluded(ray, t_max);
-        }
+        occluded_ray_by_ray(self, rays, t_max, occluded);
+    }
+}
+
+/// [`Accelerator::closest_hits`] by single-ray queries: the default, and the BVH's answer for runs it
+/// cannot walk as packets.
+fn closest_ray_by_ray<A: Accelerator + ?Sized>(
+    accel: &A,
+    rays: &[Ray],
+    t_range: Interval,
+    hits: &mut [Option<PrimitiveHit>],
+) {
+    for (ray, hit) in rays.iter().zip(hits) {
+        *hit = accel.closest_hit(ray, t_range);
+    }
+}
+
+/// [`Accelerator::occluded_each`] by single-ray queries.
+fn occluded_ray_by_ray<A: Accelerator + ?Sized>(accel: &A, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
+    for (ray, o) in rays.iter().zip(occluded) {
+        *o = accel.occluded(ray, t_max);
     }
 }
 

@@ -15,7 +15,7 @@ use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
 use triangles::{LANES, Packet, candidates};
 use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
-use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
+use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
 /// Largest leaf of primitives other than triangles.
 const MAX_LEAF: usize = 4;
@@ -347,11 +347,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 (Some(tris), Some(negative)) if !t_range.min.is_nan() && !t_range.max.is_nan() => {
                     self.closest_packet(tris, rays, negative, t_range, hits)
                 }
-                _ => {
-                    for (ray, hit) in rays.iter().zip(hits) {
-                        *hit = self.closest_hit(ray, t_range);
-                    }
-                }
+                _ => closest_ray_by_ray(self, rays, t_range, hits),
             }
         }
     }
@@ -363,11 +359,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 (Some(tris), Some(negative)) if !t_max.is_nan() => {
                     self.occluded_packet(tris, rays, negative, t_max, occluded)
                 }
-                _ => {
-                    for (ray, o) in rays.iter().zip(occluded) {
-                        *o = self.occluded(ray, t_max);
-                    }
-                }
+                _ => occluded_ray_by_ray(self, rays, t_max, occluded),
             }
         }
     }

@@ -86,7 +86,9 @@ pub(super) trait NodeTest {
 impl NodeTest for BoxRay {
     #[inline(always)]
     fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
-        self.intersect(node, t_min, t_max)
+        slabs(node, &self.negative, t_min, t_max, |a, lo, hi| {
+            ((lo - self.origin[a]) * self.inv_near[a], (hi - self.origin[a]) * self.inv_far[a])
+        })
     }
 }
 
@@ -213,15 +215,6 @@ impl BoxRay {
             inv_far: inv_far.map(Vec4::splat),
             negative: [negative & 1 != 0, negative & 2 != 0, negative & 4 != 0],
         }
-    }
-
-    /// The entry distances of the four children and the mask of those the ray meets within
-    /// `[t_min, t_max]`.
-    #[inline(always)]
-    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
-        slabs(node, &self.negative, t_min, t_max, |a, lo, hi| {
-            ((lo - self.origin[a]) * self.inv_near[a], (hi - self.origin[a]) * self.inv_far[a])
-        })
     }
 }
 
