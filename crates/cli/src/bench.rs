@@ -82,18 +82,14 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
     let threads = rayon::current_num_threads();
     let trace = |ray: &Ray| accel.closest_hit(ray, Interval::POSITIVE).map(|h| (h.hit.t, h.primitive));
     let mut best_closest = f64::INFINITY;
-    let mut hits = vec![None; rays.len()];
-    let mut found = vec![None; rays.len()];
+    let mut hits = Vec::new();
+    let mut found = vec![None; if args.batch { rays.len() } else { 0 }];
     for _ in 0..args.repeat.max(1) {
         let t = Instant::now();
         if args.batch {
             // Runs of one packet each, so that threads share the work as finely as single rays do.
             let run = |(rays, found): (&[Ray], &mut [_])| accel.closest_hits(rays, Interval::POSITIVE, found);
-            if threads == 1 {
-                accel.closest_hits(&rays, Interval::POSITIVE, &mut found);
-            } else {
-                rays.par_chunks(BATCH_RUN).zip(found.par_chunks_mut(BATCH_RUN)).for_each(run);
-            }
+            rays.par_chunks(BATCH_RUN).zip(found.par_chunks_mut(BATCH_RUN)).for_each(run);
         } else if threads == 1 {
             hits = rays.iter().map(trace).collect();
         } else {
@@ -106,17 +102,13 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
     }
     let mut best_occluded = f64::INFINITY;
     let mut blocked = 0;
-    let mut occluded = vec![false; rays.len()];
+    let mut occluded = vec![false; if args.batch { rays.len() } else { 0 }];
     for _ in 0..args.repeat.max(1) {
         let t = Instant::now();
         let occ = |r: &Ray| accel.occluded(r, f32::INFINITY) as usize;
         blocked = if args.batch {
             let run = |(rays, occluded): (&[Ray], &mut [bool])| accel.occluded_each(rays, f32::INFINITY, occluded);
-            if threads == 1 {
-                accel.occluded_each(&rays, f32::INFINITY, &mut occluded);
-            } else {
-                rays.par_chunks(BATCH_RUN).zip(occluded.par_chunks_mut(BATCH_RUN)).for_each(run);
-            }
+            rays.par_chunks(BATCH_RUN).zip(occluded.par_chunks_mut(BATCH_RUN)).for_each(run);
             occluded.iter().filter(|&&o| o).count()
         } else if threads == 1 {
             rays.iter().map(occ).sum()

@@ -311,3 +311,34 @@ fn converge_by_time_budgets() {
         assert!(pair[1][0] >= pair[0][0], "more time, more samples");
     }
 }
+
+#[test]
+fn bench_batch_gives_the_single_ray_hits() {
+    let dir = temp_dir("batch");
+    let run = raylume().args(["gen", "tetra", "4"]).output().unwrap();
+    assert!(run.status.success());
+    let scene = dir.join("tetra.p3f");
+    std::fs::write(&scene, &run.stdout).unwrap();
+    let (rays, single, batch) = (dir.join("r.bin"), dir.join("single.bin"), dir.join("batch.bin"));
+    let bench = |extra: &[&str], hits: &std::path::Path| {
+        let run = raylume()
+            .arg("bench")
+            .arg(&scene)
+            .args(["--count", "4096", "--repeat", "1"])
+            .args(extra)
+            .arg("--write-hits")
+            .arg(hits)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        String::from_utf8_lossy(&run.stdout).into_owned()
+    };
+    bench(&["--write-rays", rays.to_str().unwrap()], &single);
+    // The same camera rays, in the same order, through the batch queries on two threads.
+    let out = bench(&["--batch", "--threads", "2", "--read-rays", rays.to_str().unwrap()], &batch);
+    assert!(out.contains("batch queries"), "{out}");
+    let hits = std::fs::read(&single).unwrap();
+    assert_eq!(hits, std::fs::read(&batch).unwrap());
+    let hit_count = hits.chunks(8).filter(|h| f32::from_le_bytes(h[..4].try_into().unwrap()).is_finite()).count();
+    assert!(hit_count > 200, "the view must see the tetrahedron: {hit_count} hits");
+}
