@@ -10,7 +10,7 @@
 //! raylume's closest-hit and occlusion queries once over that subset of the first mesh and exits: a
 //! fixed workload for `valgrind --tool=callgrind --branch-sim=yes`, whose instruction and
 //! mispredicted-branch counts do not move with the machine's load (`RAYLUME_SPLIT_QUERY=closest` or
-//! `occluded` runs only that query).
+//! `occluded` runs only that query; `RAYLUME_SPLIT_REPEAT=n` runs it n times, for a sampling profiler).
 
 mod common;
 
@@ -64,16 +64,17 @@ fn main() {
                 if let Some(once) = &once {
                     if *once == name {
                         let query = std::env::var("RAYLUME_SPLIT_QUERY").unwrap_or_default();
-                        let closest = if query == "occluded" {
-                            0
-                        } else {
-                            set.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count()
-                        };
-                        let occluded = if query == "closest" {
-                            0
-                        } else {
-                            set.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count()
-                        };
+                        let repeat: usize =
+                            std::env::var("RAYLUME_SPLIT_REPEAT").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+                        let (mut closest, mut occluded) = (0, 0);
+                        for _ in 0..repeat {
+                            if query != "occluded" {
+                                closest = set.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count();
+                            }
+                            if query != "closest" {
+                                occluded = set.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count();
+                            }
+                        }
                         println!("{} rays: {closest} hit, {occluded} occluded", set.len());
                         return;
                     }

@@ -7,6 +7,8 @@ mod build;
 mod stream;
 mod triangles;
 mod wide;
+#[cfg(target_arch = "x86_64")]
+mod wide8;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
@@ -26,9 +28,11 @@ const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 /// at the leaf's first packet (the packet walk tests it for four rays at a time).
 #[derive(Clone, Debug)]
 struct Triangles {
-    tree: WideTree,
+    tree: WideTree<4>,
     packets: Vec<Packet>,
     leaf_bounds: Vec<[f32; 6]>,
+    #[cfg(target_arch = "x86_64")]
+    tree8: Option<(pulp::x86::V3, WideTree<8>)>,
 }
 
 /// A BVH over primitives.
@@ -48,7 +52,7 @@ struct Triangles {
 #[derive(Clone, Debug)]
 pub struct Bvh<P> {
     triangles: Option<Triangles>,
-    others: Option<(WideTree, Vec<P>, Vec<u32>)>,
+    others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
@@ -89,6 +93,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let bin = build_binary(&mut tri_items, method, LANES, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
             let mut leaf_bounds = Vec::with_capacity(packets.capacity());
+            let mut leaf_of_first = vec![0u32; tri_items.len()];
             let tree = WideTree::collapse(&bin, |first, count, bounds| {
                 let start = packets.len();
                 packets.extend(
@@ -98,9 +103,21 @@ impl<P: Intersect + Clone> Bvh<P> {
                 );
                 let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
                 leaf_bounds.resize(packets.len(), [min[0], min[1], min[2], max[0], max[1], max[2]]);
-                leaf_ref(start, count)
+                let r = leaf_ref(start, count);
+                leaf_of_first[first] = r;
+                r
             });
-            Triangles { tree, packets, leaf_bounds }
+            #[cfg(target_arch = "x86_64")]
+            let tree8 = pulp::x86::V3::try_new()
+                .filter(|_| std::env::var_os("RAYLUME_NO_AVX2").is_none())
+                .map(|simd| (simd, WideTree::collapse(&bin, |first, _, _| leaf_of_first[first])));
+            Triangles {
+                tree,
+                packets,
+                leaf_bounds,
+                #[cfg(target_arch = "x86_64")]
+                tree8,
+            }
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
@@ -186,7 +203,6 @@ impl<P: Intersect> Bvh<P> {
     fn closest_other<T: Tally>(
         &self,
         ray: &Ray,
-        box_ray: &BoxRay,
         mut t_range: Interval,
         tally: &mut T,
     ) -> Option<PrimitiveHit> {
@@ -199,7 +215,7 @@ impl<P: Intersect> Bvh<P> {
             }
         }
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest::<false, _>(box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
+            tree.closest::<false, _>(&BoxRay::new(ray), t_range.min, t_range.max, tally, |leaf, t_max, tally| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
                 for i in first..first + count {
@@ -217,9 +233,9 @@ impl<P: Intersect> Bvh<P> {
 
     /// Whether a bounded shape other than a triangle is hit within `(0, t_max)`.
     #[inline(always)]
-    fn occluded_other<T: Tally>(&self, ray: &Ray, box_ray: &BoxRay, t_max: f32, tally: &mut T) -> bool {
+    fn occluded_other<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         let Some((tree, prims, _)) = &self.others else { return false };
-        tree.any(box_ray, t_max, tally, |leaf, tally| {
+        tree.any(&BoxRay::new(ray), t_max, tally, |leaf, tally| {
             let (first, count) = leaf_range(leaf);
             prims[first..first + count].iter().any(|p| {
                 tally.tested();
@@ -243,14 +259,14 @@ impl<P: Intersect> Bvh<P> {
         let mut t_max = [t_range.max; stream::PACKET];
         if self.others.is_some() || !self.unbounded.is_empty() {
             for ((ray, hit), t) in rays.iter().zip(hits.iter_mut()).zip(&mut t_max) {
-                *hit = self.closest_other(ray, &BoxRay::new(ray), t_range, &mut ());
+                *hit = self.closest_other(ray, t_range, &mut ());
                 *t = hit.map_or(t_range.max, |h| h.hit.t);
             }
         } else {
             hits.fill(None);
         }
         let mut found = [None; stream::PACKET];
-        let Triangles { tree, packets, leaf_bounds } = tris;
+        let Triangles { tree, packets, leaf_bounds, .. } = tris;
         let n = rays.len();
         stream::closest(tree, packets, leaf_bounds, rays, negative, t_range.min, &t_max[..n], &mut found[..n]);
         for (hit, found) in hits.iter_mut().zip(found) {
@@ -271,11 +287,11 @@ impl<P: Intersect> Bvh<P> {
                 *end = f32::NEG_INFINITY;
             }
         }
-        let Triangles { tree, packets, leaf_bounds } = tris;
+        let Triangles { tree, packets, leaf_bounds, .. } = tris;
         stream::occluded(tree, packets, leaf_bounds, rays, negative, &ends[..rays.len()], occluded);
         if self.others.is_some() {
             for (ray, o) in rays.iter().zip(occluded) {
-                *o = *o || self.occluded_other(ray, &BoxRay::new(ray), t_max, &mut ());
+                *o = *o || self.occluded_other(ray, t_max, &mut ());
             }
         }
     }
@@ -286,23 +302,30 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if !ray.is_valid() {
             return None;
         }
-        let box_ray = BoxRay::new(ray);
-        let mut best = self.closest_other(ray, &box_ray, t_range, tally);
+        let mut best = self.closest_other(ray, t_range, tally);
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
+        if let Some(Triangles { tree, packets, tree8, .. }) = &self.triangles {
             let mut found: Option<(TriangleHit, u32, u32)> = None;
             // Prepared at the first leaf: many rays reach none.
             let mut sheared = None;
-            tree.closest::<false, _>(&box_ray, t_range.min, t_range.max, tally, |leaf, t_max, tally| {
+            let mut leaf = |leaf, t_max, tally: &mut T| {
                 let (first, count) = leaf_range(leaf);
                 for _ in 0..count {
                     tally.tested();
                 }
                 let Some(sheared) = sheared.get_or_insert_with(|| ShearedRay::new(ray)) else { return t_max };
                 closest_in_leaf(packets, first, count, sheared, t_range.with_max(t_max), &mut found)
-            });
+            };
+            if let Some((simd, t8)) = tree8 {
+                let simd = *simd;
+                simd.vectorize(|| {
+                    t8.closest::<false, _>(&wide8::BoxRay8::new(simd, ray), t_range.min, t_range.max, tally, &mut leaf)
+                });
+            } else {
+                tree.closest::<false, _>(&BoxRay::new(ray), t_range.min, t_range.max, tally, leaf);
+            }
             if let Some((h, packet, lane)) = found {
                 let packet = &packets[packet as usize];
                 best = Some(PrimitiveHit { hit: h.hit(&packet.triangle(lane)), primitive: packet.id(lane) });
@@ -321,23 +344,28 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }) {
             return true;
         }
-        let box_ray = BoxRay::new(ray);
-        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
+        if let Some(Triangles { tree, packets, tree8, .. }) = &self.triangles {
             let range = Interval::new(0.0, t_max);
             let mut sheared = None;
-            let hit = tree.any(&box_ray, t_max, tally, |leaf, tally| {
+            let mut leaf = |leaf, tally: &mut T| {
                 let (first, count) = leaf_range(leaf);
                 for _ in 0..count {
                     tally.tested();
                 }
                 let Some(sheared) = sheared.get_or_insert_with(|| ShearedRay::new(ray)) else { return false };
                 occluded_in_leaf(packets, first, count, sheared, range)
-            });
+            };
+            let hit = if let Some((simd, t8)) = tree8 {
+                let simd = *simd;
+                simd.vectorize(|| t8.any(&wide8::BoxRay8::new(simd, ray), t_max, tally, &mut leaf))
+            } else {
+                tree.any(&BoxRay::new(ray), t_max, tally, leaf)
+            };
             if hit {
                 return true;
             }
         }
-        self.occluded_other(ray, &box_ray, t_max, tally)
+        self.occluded_other(ray, t_max, tally)
     }
 
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
@@ -371,7 +399,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn stats(&self) -> AccelStats {
         let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
         let mut primitives = self.unbounded.len();
-        if let Some(Triangles { tree, packets, leaf_bounds }) = &self.triangles {
+        if let Some(Triangles { tree, packets, leaf_bounds, .. }) = &self.triangles {
             bytes += tree.bytes()
                 + std::mem::size_of_val(packets.as_slice())
                 + std::mem::size_of_val(leaf_bounds.as_slice());

@@ -133,7 +133,7 @@ impl<'a> Rays<'a> {
 /// returns the ray's new `t_max` (`-inf` retires the ray). With `ANY`, the walk stops once every ray
 /// is retired.
 fn walk<const ANY: bool>(
-    tree: &WideTree,
+    tree: &WideTree<4>,
     leaf_bounds: &[[f32; 6]],
     rays: &[Ray],
     negative: [bool; 3],
@@ -156,7 +156,7 @@ fn walk<const ANY: bool>(
 /// within `[t_min, t_max[i]]`, kept in `found[i]` as [`closest_in_leaf`] keeps it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn closest(
-    tree: &WideTree,
+    tree: &WideTree<4>,
     packets: &[Packet],
     leaf_bounds: &[[f32; 6]],
     rays: &[Ray],
@@ -173,7 +173,7 @@ pub(super) fn closest(
 /// Whether each ray of the packet `rays` (signs `negative`) hits a triangle within `(0, t_max[i])`:
 /// sets `occluded[i]` for those that do.
 pub(super) fn occluded(
-    tree: &WideTree,
+    tree: &WideTree<4>,
     packets: &[Packet],
     leaf_bounds: &[[f32; 6]],
     rays: &[Ray],

@@ -1,5 +1,5 @@
-//! The wide tree: nodes of four children whose boxes a ray tests together, collapsed from the binary
-//! build, and the ordered traversal shared by every kind of leaf.
+//! The wide trees: nodes of four or eight children whose boxes a ray tests together, collapsed from
+//! the binary build, and the ordered traversal shared by both widths and every kind of leaf.
 
 use glam::Vec4;
 use raylume_geometry::{Aabb, Ray, Vec3A};
@@ -7,8 +7,6 @@ use raylume_geometry::{Aabb, Ray, Vec3A};
 use super::build::Node;
 use crate::Tally;
 
-/// Children per node.
-pub(super) const WIDTH: usize = 4;
 /// A child reference with this bit set is a leaf: `LEAF | (count - 1) << COUNT_SHIFT | first`.
 pub(super) const LEAF: u32 = 1 << 31;
 const COUNT_SHIFT: u32 = 28;
@@ -16,38 +14,39 @@ const COUNT_SHIFT: u32 = 28;
 pub(super) const MAX_FIRST: u32 = (1 << COUNT_SHIFT) - 1;
 /// An unused child slot (its box is empty, so no ray reaches it).
 const EMPTY: u32 = u32::MAX;
-/// Traversal stack entries: three per level of a tree at most 70 levels deep.
-const STACK: usize = 256;
-/// The stacks of trees at most 10 and 21 levels deep, which spare most queries clearing the large one.
-const SHORTEST_STACK: usize = 32;
-const SHORT_STACK: usize = 64;
+/// Traversal stack entries: enough for seven per level of a tree 70 levels deep (the binary build
+/// stays below that depth); the walk clears only the first 32 or 64 when the tree is shallow enough.
+const STACK: usize = 512;
 
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
 const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
 
-/// One node: the boxes of its four children, stored by plane (`bounds[2 a]` the minima along axis
-/// `a`, `bounds[2 a + 1]` the maxima, one lane per child) so that one ray tests all four together,
+/// One node of `W` children: their boxes stored by plane (`bounds[2 a]` the minima along axis `a`,
+/// `bounds[2 a + 1]` the maxima, one lane per child) so that one ray tests all of them together,
 /// picking each axis's near plane by index rather than by branch or select.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub(super) struct WideNode {
-    bounds: [Vec4; 6],
-    child: [u32; WIDTH],
+pub(super) struct WideNode<const W: usize> {
+    pub bounds: [[f32; W]; 6],
+    pub child: [u32; W],
 }
 
-const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
 
-const EMPTY_NODE: WideNode = WideNode {
-    bounds: [
-        Vec4::INFINITY,
-        Vec4::NEG_INFINITY,
-        Vec4::INFINITY,
-        Vec4::NEG_INFINITY,
-        Vec4::INFINITY,
-        Vec4::NEG_INFINITY,
-    ],
-    child: [EMPTY; WIDTH],
-};
+impl<const W: usize> WideNode<W> {
+    const EMPTY: Self = Self {
+        bounds: [
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+            [f32::INFINITY; W],
+            [f32::NEG_INFINITY; W],
+        ],
+        child: [EMPTY; W],
+    };
+}
 
 /// A leaf reference's first item and count.
 #[inline(always)]
@@ -76,16 +75,16 @@ pub(super) struct BoxRay {
     negative: [bool; 3],
 }
 
-/// The box test of a node's four children, by one ray ([`BoxRay`]) or by a packet of rays
-/// ([`Frustum`]): the entry distances of the children and the mask of those met within
-/// `[t_min, t_max]`.
-pub(super) trait NodeTest {
-    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32);
+/// The box test of a node's `W` children, by one ray ([`BoxRay`], or `BoxRay8` in AVX registers) or
+/// by a packet of rays ([`Frustum`]): the entry distances of the children and the mask of those met
+/// within `[t_min, t_max]`.
+pub(super) trait NodeTest<const W: usize> {
+    fn intersect(&self, node: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 }
 
-impl NodeTest for BoxRay {
+impl NodeTest<4> for BoxRay {
     #[inline(always)]
-    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
+    fn intersect(&self, node: &WideNode<4>, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
         slabs(node, &self.negative, t_min, t_max, |a, lo, hi| {
             ((lo - self.origin[a]) * self.inv_near[a], (hi - self.origin[a]) * self.inv_far[a])
         })
@@ -157,9 +156,9 @@ impl Frustum {
     }
 }
 
-impl NodeTest for Frustum {
+impl NodeTest<4> for Frustum {
     #[inline(always)]
-    fn intersect(&self, node: &WideNode, t_min: f32, t_max: f32) -> (Vec4, u32) {
+    fn intersect(&self, node: &WideNode<4>, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
         slabs(node, &self.negative, t_min, t_max, |a, lo, hi| {
             let [n0, n1] = self.inv_near[a];
             let [f0, f1] = self.inv_far[a];
@@ -176,24 +175,25 @@ impl NodeTest for Frustum {
 /// distances and the mask of the children met within `[t_min, t_max]`.
 #[inline(always)]
 fn slabs(
-    node: &WideNode,
+    node: &WideNode<4>,
     negative: &[bool; 3],
     t_min: f32,
     t_max: f32,
     planes: impl Fn(usize, Vec4, Vec4) -> (Vec4, Vec4),
-) -> (Vec4, u32) {
+) -> ([f32; 4], u32) {
     let mut near = Vec4::splat(t_min);
     let mut far = Vec4::splat(t_max);
     for (a, &negative) in negative.iter().enumerate() {
         // A bool indexes without a bounds check: the planes' offsets are the ray's, not the node's.
         let neg = negative as usize;
-        let (tn, tf) = planes(a, node.bounds[2 * a + neg], node.bounds[2 * a + 1 - neg]);
+        let plane = |i: usize| Vec4::from_array(node.bounds[i]);
+        let (tn, tf) = planes(a, plane(2 * a + neg), plane(2 * a + 1 - neg));
         // maxps/minps return their second operand when either is NaN: a NaN product leaves the
         // bound as it was (glam's scalar fallback, f32::max/min, does the same).
         near = tn.max(near);
         far = tf.min(far);
     }
-    (near, near.cmple(far).bitmask())
+    (near.to_array(), near.cmple(far).bitmask())
 }
 
 impl BoxRay {
@@ -218,17 +218,6 @@ impl BoxRay {
     }
 }
 
-/// Number of bits set in each four-bit mask.
-const HIT_COUNT: [u8; 1 << WIDTH] = {
-    let mut t = [0u8; 1 << WIDTH];
-    let mut m = 0;
-    while m < t.len() {
-        t[m] = (m as u32).count_ones() as u8;
-        m += 1;
-    }
-    t
-};
-
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
 #[inline(always)]
 fn order_key(f: f32) -> u32 {
@@ -236,22 +225,23 @@ fn order_key(f: f32) -> u32 {
     b ^ (((b as i32) >> 31) as u32 | 0x8000_0000)
 }
 
-/// A wide tree: nodes and the reference of the root (an inner node or a single leaf).
+/// A wide tree of nodes of `W` children: nodes and the reference of the root (an inner node or a
+/// single leaf).
 #[derive(Clone, Debug)]
-pub(super) struct WideTree {
-    nodes: Vec<WideNode>,
+pub(super) struct WideTree<const W: usize> {
+    nodes: Vec<WideNode<W>>,
     root: u32,
     bounds: Aabb,
     /// Levels of inner nodes on the longest path.
     depth: usize,
 }
 
-impl WideTree {
+impl<const W: usize> WideTree<W> {
     /// Collapses the binary tree `bin` (non-empty): each wide node takes the binary node's children
-    /// and opens the largest inner ones until it has four. `leaf` turns a binary leaf's item range
+    /// and opens the largest inner ones until it has `W`. `leaf` turns a binary leaf's item range
     /// and box into a leaf reference.
     pub fn collapse(bin: &[Node], mut leaf: impl FnMut(usize, usize, Aabb) -> u32) -> Self {
-        let mut nodes = Vec::with_capacity(bin.len() / 2 + 1);
+        let mut nodes = Vec::with_capacity(bin.len() / (W - 1) + 1);
         let root = collapse_node(bin, 0, &mut nodes, &mut leaf);
         let mut tree = Self { nodes, root, bounds: bin[0].aabb(), depth: 0 };
         tree.depth = tree.depth_below(root);
@@ -259,7 +249,7 @@ impl WideTree {
     }
 
     fn depth_below(&self, r: u32) -> usize {
-        if r & LEAF != 0 {
+        if r & LEAF != 0 || r == EMPTY {
             return 0;
         }
         1 + self.nodes[r as usize].child.iter().map(|&c| self.depth_below(c)).max().unwrap_or(0)
@@ -283,87 +273,58 @@ impl WideTree {
     #[inline(always)]
     pub fn closest<const ANY: bool, T: Tally>(
         &self,
-        ray: &impl NodeTest,
-        t_min: f32,
-        t_max: f32,
-        tally: &mut T,
-        leaf: impl FnMut(u32, f32, &mut T) -> f32,
-    ) {
-        // Each level pushes at most three entries. One walk for every stack size, so that the leaf
-        // test has one call site (and is inlined).
-        let mut short = [(0u32, 0.0f32); SHORTEST_STACK];
-        let mut medium;
-        let mut long;
-        let stack: &mut [(u32, f32)] = if 3 * self.depth < SHORTEST_STACK {
-            &mut short
-        } else if 3 * self.depth < SHORT_STACK {
-            medium = [(0u32, 0.0f32); SHORT_STACK];
-            &mut medium
-        } else {
-            long = [(0u32, 0.0f32); STACK];
-            &mut long
-        };
-        self.walk::<ANY, T>(stack, ray, t_min, t_max, tally, leaf)
-    }
-
-    #[inline(always)]
-    fn walk<const ANY: bool, T: Tally>(
-        &self,
-        stack: &mut [(u32, f32)],
-        ray: &impl NodeTest,
+        ray: &impl NodeTest<W>,
         t_min: f32,
         mut t_max: f32,
         tally: &mut T,
         mut leaf: impl FnMut(u32, f32, &mut T) -> f32,
     ) {
-        let mut sp = 0;
+        // Down to the first node with two children or more, no stack is needed: many rays (those that
+        // miss the mesh near its silhouette) end on that path, and clearing a stack is a large part
+        // of their cost.
         let mut cur = self.root;
+        let (near, mask) = loop {
+            if cur & LEAF != 0 {
+                leaf(cur, t_max, tally);
+                return;
+            }
+            let node = &self.nodes[cur as usize];
+            tally.visited();
+            let (near, mask) = ray.intersect(node, t_min, t_max);
+            if mask & mask.wrapping_sub(1) != 0 {
+                break (near, mask);
+            }
+            if mask == 0 {
+                return;
+            }
+            cur = node.child[mask.trailing_zeros() as usize];
+        };
+        // Each level pushes at most W - 1 entries. One walk for every stack size, so that the leaf
+        // test has one call site (and is inlined).
+        let need = (W - 1) * self.depth;
+        let mut short = [(0u32, 0.0f32); 32];
+        let (mut medium, mut long, mut huge);
+        let stack: &mut [(u32, f32)] = if need <= 32 {
+            &mut short
+        } else if need <= 64 {
+            medium = [(0u32, 0.0f32); 64];
+            &mut medium
+        } else if need <= STACK {
+            long = [(0u32, 0.0f32); STACK];
+            &mut long
+        } else {
+            huge = vec![(0u32, 0.0f32); need];
+            &mut huge
+        };
+        let mut sp = 0;
+        cur = push_children(&self.nodes[cur as usize], near, mask, stack, &mut sp);
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
                 tally.visited();
-                let (near, mut mask) = ray.intersect(node, t_min, t_max);
+                let (near, mask) = ray.intersect(node, t_min, t_max);
                 if mask != 0 {
-                    let first = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    if mask == 0 {
-                        cur = node.child[first];
-                        continue;
-                    }
-                    let near = near.to_array();
-                    let second = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    if mask == 0 {
-                        // Two children, the most common case: order them without a branch.
-                        let (a, b) = if near[second] < near[first] { (second, first) } else { (first, second) };
-                        stack[sp] = (node.child[b], near[b]);
-                        sp += 1;
-                        cur = node.child[a];
-                        continue;
-                    }
-                    // Three or four children: sort the four slots by entry distance with a network
-                    // (keys carry the slot in their two low bits; missed slots sort last), push the
-                    // hit ones but the nearest, farthest first, and go on with the nearest.
-                    mask |= (1 << first) | (1 << second);
-                    let mut k = [u32::MAX; WIDTH];
-                    for (i, key) in k.iter_mut().enumerate() {
-                        if mask & (1 << i) != 0 {
-                            *key = (order_key(near[i]) & !3) | i as u32;
-                        }
-                    }
-                    for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-                        let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
-                        k[a] = lo;
-                        k[b] = hi;
-                    }
-                    // A table: without the popcnt instruction (baseline x86-64) count_ones is a long sequence.
-                    let n = HIT_COUNT[mask as usize] as usize;
-                    for j in 0..WIDTH - 1 {
-                        let slot = (k[(n - 1).saturating_sub(j).max(1)] & 3) as usize;
-                        stack[sp + j] = (node.child[slot], near[slot]);
-                    }
-                    sp += n - 1;
-                    cur = node.child[(k[0] & 3) as usize];
+                    cur = push_children(node, near, mask, stack, &mut sp);
                     continue;
                 }
             } else {
@@ -392,7 +353,7 @@ impl WideTree {
     #[inline(always)]
     pub fn any<T: Tally>(
         &self,
-        ray: &impl NodeTest,
+        ray: &impl NodeTest<W>,
         t_max: f32,
         tally: &mut T,
         mut leaf: impl FnMut(u32, &mut T) -> bool,
@@ -410,21 +371,91 @@ impl WideTree {
     }
 }
 
-fn collapse_node(
+/// Pushes the children of `node` in `mask` (not empty) but the nearest onto the stack, farthest
+/// first, and returns the nearest.
+#[inline(always)]
+fn push_children<const W: usize>(
+    node: &WideNode<W>,
+    near: [f32; W],
+    mut mask: u32,
+    stack: &mut [(u32, f32)],
+    sp: &mut usize,
+) -> u32 {
+    let first = mask.trailing_zeros() as usize;
+    mask &= mask - 1;
+    if mask == 0 {
+        return node.child[first];
+    }
+    let second = mask.trailing_zeros() as usize;
+    mask &= mask - 1;
+    if mask == 0 {
+        // Two children, the most common case: order them without a branch.
+        let (a, b) = if near[second] < near[first] { (second, first) } else { (first, second) };
+        stack[*sp] = (node.child[b], near[b]);
+        *sp += 1;
+        return node.child[a];
+    }
+    // Three children or more: sort them by entry distance (keys carry the slot in their low bits,
+    // below the distance's), push all but the nearest, farthest first, and go on with the nearest.
+    mask |= (1 << first) | (1 << second);
+    let slot_bits = W.trailing_zeros();
+    let slot_mask = (W - 1) as u32;
+    let key = |slot: usize| (order_key(near[slot]) & !slot_mask) | slot as u32;
+    let mut k = [u32::MAX; W];
+    let n = if W == 4 {
+        // A network over the four slots (missed ones sort last).
+        for (i, k) in k.iter_mut().enumerate() {
+            if mask & (1 << i) != 0 {
+                *k = key(i);
+            }
+        }
+        for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+            let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
+            k[a] = lo;
+            k[b] = hi;
+        }
+        mask.count_ones() as usize
+    } else {
+        // Insertion of each hit slot's key.
+        let mut n = 0;
+        while mask != 0 {
+            let slot = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let key = key(slot);
+            let mut j = n;
+            while j > 0 && k[j - 1] > key {
+                k[j] = k[j - 1];
+                j -= 1;
+            }
+            k[j] = key;
+            n += 1;
+        }
+        n
+    };
+    debug_assert!(slot_bits <= 3);
+    for j in (1..n).rev() {
+        let slot = (k[j] & slot_mask) as usize;
+        stack[*sp] = (node.child[slot], near[slot]);
+        *sp += 1;
+    }
+    node.child[(k[0] & slot_mask) as usize]
+}
+
+fn collapse_node<const W: usize>(
     bin: &[Node],
     b: usize,
-    out: &mut Vec<WideNode>,
+    out: &mut Vec<WideNode<W>>,
     leaf: &mut impl FnMut(usize, usize, Aabb) -> u32,
 ) -> u32 {
     let node = &bin[b];
     if node.count > 0 {
         return leaf(node.offset as usize, node.count as usize, node.aabb());
     }
-    let mut children = [0usize; WIDTH];
+    let mut children = [0usize; W];
     children[0] = node.offset as usize;
     children[1] = node.offset as usize + 1;
     let mut n = 2;
-    while n < WIDTH {
+    while n < W {
         // Open the inner child with the largest surface area.
         let largest = (0..n)
             .filter(|&i| bin[children[i]].count == 0)
@@ -436,8 +467,8 @@ fn collapse_node(
         n += 1;
     }
     let me = out.len();
-    out.push(EMPTY_NODE);
-    let mut wide = EMPTY_NODE;
+    out.push(WideNode::EMPTY);
+    let mut wide = WideNode::EMPTY;
     for (slot, &c) in children[..n].iter().enumerate() {
         let b = &bin[c];
         for a in 0..3 {
@@ -461,8 +492,8 @@ mod tests {
     }
 
     /// A node whose four children are the given boxes.
-    fn node_of(boxes: &[(Vec3A, Vec3A)]) -> WideNode {
-        let mut node = EMPTY_NODE;
+    fn node_of(boxes: &[(Vec3A, Vec3A)]) -> WideNode<4> {
+        let mut node = WideNode::EMPTY;
         for (slot, (a, b)) in boxes.iter().enumerate() {
             let (lo, hi) = (a.min(*b).to_array(), a.max(*b).to_array());
             for axis in 0..3 {
@@ -502,7 +533,7 @@ mod tests {
                 prop_assert_eq!(ray_mask & !mask, 0, "a child {:b} passed by {:?} but not by the packet {:b}", ray_mask, ray, mask);
                 for slot in 0..4 {
                     if ray_mask & (1 << slot) != 0 {
-                        prop_assert!(near.to_array()[slot] <= ray_near.to_array()[slot]);
+                        prop_assert!(near[slot] <= ray_near[slot]);
                     }
                 }
             }
