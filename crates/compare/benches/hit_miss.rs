@@ -69,7 +69,8 @@ fn main() {
                         let (mut closest, mut occluded) = (0, 0);
                         for _ in 0..repeat {
                             if query != "occluded" {
-                                closest = set.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count();
+                                closest =
+                                    set.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count();
                             }
                             if query != "closest" {
                                 occluded = set.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count();

@@ -200,12 +200,7 @@ impl<P> Bvh<P> {
 impl<P: Intersect> Bvh<P> {
     /// The closest hit within `t_range` among the planes and the shapes other than triangles.
     #[inline(always)]
-    fn closest_other<T: Tally>(
-        &self,
-        ray: &Ray,
-        mut t_range: Interval,
-        tally: &mut T,
-    ) -> Option<PrimitiveHit> {
+    fn closest_other<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         let mut best = None;
         for (p, id) in &self.unbounded {
             tally.tested();

@@ -15,7 +15,7 @@ pub(super) const MAX_FIRST: u32 = (1 << COUNT_SHIFT) - 1;
 /// An unused child slot (its box is empty, so no ray reaches it).
 const EMPTY: u32 = u32::MAX;
 /// Traversal stack entries: enough for seven per level of a tree 70 levels deep (the binary build
-/// stays below that depth); the walk clears only the first 32 or 64 when the tree is shallow enough.
+/// stays below that depth); the walk clears only 40 or 64 when the tree is shallow enough.
 const STACK: usize = 512;
 
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
@@ -80,6 +80,27 @@ pub(super) struct BoxRay {
 /// within `[t_min, t_max]`.
 pub(super) trait NodeTest<const W: usize> {
     fn intersect(&self, node: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+
+    /// The sort keys of the children in `mask` by increasing entry distance `near`, each key
+    /// carrying its child's slot in its low bits; those not in `mask` follow.
+    #[inline(always)]
+    fn order(&self, near: [f32; W], mask: u32) -> [u32; W] {
+        let slot_mask = (W - 1) as u32;
+        let mut k = [u32::MAX; W];
+        for (i, k) in k.iter_mut().enumerate() {
+            *k = if mask & (1 << i) != 0 { (order_key(near[i]) & !slot_mask) | i as u32 } else { u32::MAX };
+        }
+        if W == 4 {
+            for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
+                k[a] = lo;
+                k[b] = hi;
+            }
+        } else {
+            k.sort_unstable();
+        }
+        k
+    }
 }
 
 impl NodeTest<4> for BoxRay {
@@ -218,9 +239,20 @@ impl BoxRay {
     }
 }
 
+/// Number of bits set in each four-bit mask.
+const HIT_COUNT: [u8; 16] = {
+    let mut t = [0u8; 16];
+    let mut m = 0;
+    while m < t.len() {
+        t[m] = (m as u32).count_ones() as u8;
+        m += 1;
+    }
+    t
+};
+
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
 #[inline(always)]
-fn order_key(f: f32) -> u32 {
+pub(super) fn order_key(f: f32) -> u32 {
     let b = f.to_bits();
     b ^ (((b as i32) >> 31) as u32 | 0x8000_0000)
 }
@@ -299,12 +331,12 @@ impl<const W: usize> WideTree<W> {
             }
             cur = node.child[mask.trailing_zeros() as usize];
         };
-        // Each level pushes at most W - 1 entries. One walk for every stack size, so that the leaf
-        // test has one call site (and is inlined).
-        let need = (W - 1) * self.depth;
-        let mut short = [(0u32, 0.0f32); 32];
+        // Each level pushes at most W - 1 entries (and writes up to W - 1 past the top). One walk for
+        // every stack size, so that the leaf test has one call site (and is inlined).
+        let need = (W - 1) * (self.depth + 1);
+        let mut short = [(0u32, 0.0f32); 40];
         let (mut medium, mut long, mut huge);
-        let stack: &mut [(u32, f32)] = if need <= 32 {
+        let stack: &mut [(u32, f32)] = if need <= 40 {
             &mut short
         } else if need <= 64 {
             medium = [(0u32, 0.0f32); 64];
@@ -317,14 +349,14 @@ impl<const W: usize> WideTree<W> {
             &mut huge
         };
         let mut sp = 0;
-        cur = push_children(&self.nodes[cur as usize], near, mask, stack, &mut sp);
+        cur = push_children(ray, &self.nodes[cur as usize], near, mask, stack, &mut sp);
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
                 tally.visited();
                 let (near, mask) = ray.intersect(node, t_min, t_max);
                 if mask != 0 {
-                    cur = push_children(node, near, mask, stack, &mut sp);
+                    cur = push_children(ray, node, near, mask, stack, &mut sp);
                     continue;
                 }
             } else {
@@ -375,6 +407,7 @@ impl<const W: usize> WideTree<W> {
 /// first, and returns the nearest.
 #[inline(always)]
 fn push_children<const W: usize>(
+    ray: &impl NodeTest<W>,
     node: &WideNode<W>,
     near: [f32; W],
     mut mask: u32,
@@ -395,49 +428,19 @@ fn push_children<const W: usize>(
         *sp += 1;
         return node.child[a];
     }
-    // Three children or more: sort them by entry distance (keys carry the slot in their low bits,
-    // below the distance's), push all but the nearest, farthest first, and go on with the nearest.
+    // Three children or more: sort them by entry distance, push all but the nearest, farthest first
+    // (W - 1 entries written, those past the hit ones above the stack's top), and go on with the nearest.
     mask |= (1 << first) | (1 << second);
-    let slot_bits = W.trailing_zeros();
     let slot_mask = (W - 1) as u32;
-    let key = |slot: usize| (order_key(near[slot]) & !slot_mask) | slot as u32;
-    let mut k = [u32::MAX; W];
-    let n = if W == 4 {
-        // A network over the four slots (missed ones sort last).
-        for (i, k) in k.iter_mut().enumerate() {
-            if mask & (1 << i) != 0 {
-                *k = key(i);
-            }
-        }
-        for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-            let (lo, hi) = (k[a].min(k[b]), k[a].max(k[b]));
-            k[a] = lo;
-            k[b] = hi;
-        }
-        mask.count_ones() as usize
-    } else {
-        // Insertion of each hit slot's key.
-        let mut n = 0;
-        while mask != 0 {
-            let slot = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let key = key(slot);
-            let mut j = n;
-            while j > 0 && k[j - 1] > key {
-                k[j] = k[j - 1];
-                j -= 1;
-            }
-            k[j] = key;
-            n += 1;
-        }
-        n
-    };
-    debug_assert!(slot_bits <= 3);
-    for j in (1..n).rev() {
-        let slot = (k[j] & slot_mask) as usize;
-        stack[*sp] = (node.child[slot], near[slot]);
-        *sp += 1;
+    let k = ray.order(near, mask);
+    // A table for four bits: without the popcnt instruction (baseline x86-64) count_ones is a long
+    // sequence; the eight-wide walk runs where popcnt is.
+    let n = if W == 4 { HIT_COUNT[mask as usize & 15] as usize } else { mask.count_ones() as usize };
+    for j in 0..W - 1 {
+        let slot = (k[(n + W - 1 - j) % W] & slot_mask) as usize;
+        stack[*sp + j] = (node.child[slot], near[slot]);
     }
+    *sp += n - 1;
     node.child[(k[0] & slot_mask) as usize]
 }
 
