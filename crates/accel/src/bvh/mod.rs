@@ -3,19 +3,19 @@
 //! tree, in packets of four laid out for the watertight test; other bounded shapes in a second tree;
 //! unbounded ones (planes) outside both.
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 mod build;
 mod stream;
 mod triangles;
 mod wide;
-#[cfg(target_arch = "x86_64")]
-mod wide8;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
-use triangles::{LANES, Packet, candidates};
-use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use triangles::{Filter, LANES, Packet, Portable};
+use wide::{BoxRay, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -135,35 +135,23 @@ impl<P: Intersect + Clone> Bvh<P> {
     }
 }
 
-/// The candidate lanes of a leaf of `count` triangles in packets from `first`: bit `4 j + l` for lane
-/// `l` of packet `first + j`.
-#[inline(always)]
-fn leaf_candidates(packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
-    let mut lanes = 0;
-    for j in 0..count.div_ceil(LANES) {
-        lanes |= candidates(&packets[first + j], ray, (count - j * LANES).min(LANES)) << (j * LANES);
-    }
-    lanes
-}
-
-/// The packet and lane of bit `bit` of [`leaf_candidates`]' mask.
+/// The packet and lane of bit `bit` of [`Filter::leaf_candidates`]' mask.
 #[inline(always)]
 fn packet_lane(first: usize, bit: u32) -> (usize, u32) {
     (first + bit as usize / LANES, bit % LANES as u32)
 }
 
-/// Tests the leaf of `count` triangles in packets from `first` for the closest hit within `range`,
-/// keeping it in `found` (the hit, its packet and lane); returns the new end of the range.
+/// Tests the candidate `lanes` of the leaf whose packets start at `first` for the closest hit within
+/// `range`, keeping it in `found` (the hit, its packet and lane); returns the new end of the range.
 #[inline(always)]
 fn closest_in_leaf(
     packets: &[Packet],
     first: usize,
-    count: usize,
+    mut lanes: u32,
     ray: &ShearedRay,
     mut range: Interval,
     found: &mut Option<(TriangleHit, u32, u32)>,
 ) -> f32 {
-    let mut lanes = leaf_candidates(packets, first, count, ray);
     while lanes != 0 {
         let (p, lane) = packet_lane(first, lanes.trailing_zeros());
         lanes &= lanes - 1;
@@ -175,10 +163,9 @@ fn closest_in_leaf(
     range.max
 }
 
-/// Whether any triangle of the leaf is hit within `range`.
+/// Whether any triangle among the candidate `lanes` of the leaf is hit within `range`.
 #[inline(always)]
-fn occluded_in_leaf(packets: &[Packet], first: usize, count: usize, ray: &ShearedRay, range: Interval) -> bool {
-    let mut lanes = leaf_candidates(packets, first, count, ray);
+fn occluded_in_leaf(packets: &[Packet], first: usize, mut lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
     while lanes != 0 {
         let (p, lane) = packet_lane(first, lanes.trailing_zeros());
         lanes &= lanes - 1;
@@ -187,6 +174,68 @@ fn occluded_in_leaf(packets: &[Packet], first: usize, count: usize, ray: &Sheare
         }
     }
     false
+}
+
+/// The triangles' leaf test of one ray's closest-hit walk.
+struct ClosestLeaf<'a, F> {
+    filter: F,
+    packets: &'a [Packet],
+    ray: &'a Ray,
+    /// Prepared at the first leaf: many rays reach none.
+    sheared: Option<Option<ShearedRay>>,
+    t_min: f32,
+    /// The closest hit so far, its packet and lane.
+    found: Option<(TriangleHit, u32, u32)>,
+}
+
+impl<'a, F> ClosestLeaf<'a, F> {
+    fn new(filter: F, packets: &'a [Packet], ray: &'a Ray, t_min: f32) -> Self {
+        Self { filter, packets, ray, sheared: None, t_min, found: None }
+    }
+}
+
+impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
+    #[inline(always)]
+    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
+        let (first, count) = leaf_range(leaf);
+        for _ in 0..count {
+            tally.tested();
+        }
+        let Some(sheared) = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)) else { return t_max };
+        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
+        closest_in_leaf(self.packets, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
+    }
+}
+
+/// The triangles' leaf test of one ray's any-hit walk within `(0, t_max)`: ends the walk at the first
+/// hit.
+struct OccludedLeaf<'a, F> {
+    filter: F,
+    packets: &'a [Packet],
+    ray: &'a Ray,
+    sheared: Option<Option<ShearedRay>>,
+    t_max: f32,
+    hit: bool,
+}
+
+impl<'a, F> OccludedLeaf<'a, F> {
+    fn new(filter: F, packets: &'a [Packet], ray: &'a Ray, t_max: f32) -> Self {
+        Self { filter, packets, ray, sheared: None, t_max, hit: false }
+    }
+}
+
+impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
+    #[inline(always)]
+    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
+        let (first, count) = leaf_range(leaf);
+        for _ in 0..count {
+            tally.tested();
+        }
+        let Some(sheared) = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)) else { return t_max };
+        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
+        self.hit = occluded_in_leaf(self.packets, first, lanes, sheared, Interval::new(0.0, self.t_max));
+        if self.hit { f32::NEG_INFINITY } else { t_max }
+    }
 }
 
 impl<P> Bvh<P> {
@@ -210,18 +259,24 @@ impl<P: Intersect> Bvh<P> {
             }
         }
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest::<false, _>(&BoxRay::new(ray), t_range.min, t_range.max, tally, |leaf, t_max, tally| {
-                let (first, count) = leaf_range(leaf);
-                let mut range = t_range.with_max(t_max);
-                for i in first..first + count {
-                    tally.tested();
-                    if let Some(hit) = prims[i].intersect(ray, range) {
-                        range = range.with_max(hit.t);
-                        best = Some(PrimitiveHit { hit, primitive: ids[i] });
+            tree.closest::<false, _>(
+                &BoxRay::new(ray),
+                t_range.min,
+                t_range.max,
+                tally,
+                &mut |leaf, t_max, tally: &mut T| {
+                    let (first, count) = leaf_range(leaf);
+                    let mut range = t_range.with_max(t_max);
+                    for i in first..first + count {
+                        tally.tested();
+                        if let Some(hit) = prims[i].intersect(ray, range) {
+                            range = range.with_max(hit.t);
+                            best = Some(PrimitiveHit { hit, primitive: ids[i] });
+                        }
                     }
-                }
-                range.max
-            });
+                    range.max
+                },
+            );
         }
         best
     }
@@ -302,25 +357,21 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             t_range = t_range.with_max(b.hit.t);
         }
         if let Some(Triangles { tree, packets, tree8, .. }) = &self.triangles {
-            let mut found: Option<(TriangleHit, u32, u32)> = None;
-            // Prepared at the first leaf: many rays reach none.
-            let mut sheared = None;
-            let mut leaf = |leaf, t_max, tally: &mut T| {
-                let (first, count) = leaf_range(leaf);
-                for _ in 0..count {
-                    tally.tested();
+            let (t_min, t_max) = (t_range.min, t_range.max);
+            let found = match tree8 {
+                #[cfg(target_arch = "x86_64")]
+                Some((simd, tree8)) => {
+                    let simd = *simd;
+                    let mut leaf = ClosestLeaf::new(simd, packets, ray, t_min);
+                    avx2::closest::<false, _, _>(simd, tree8, ray, (t_min, t_max), tally, &mut leaf);
+                    leaf.found
                 }
-                let Some(sheared) = sheared.get_or_insert_with(|| ShearedRay::new(ray)) else { return t_max };
-                closest_in_leaf(packets, first, count, sheared, t_range.with_max(t_max), &mut found)
+                _ => {
+                    let mut leaf = ClosestLeaf::new(Portable, packets, ray, t_min);
+                    tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
+                    leaf.found
+                }
             };
-            if let Some((simd, t8)) = tree8 {
-                let simd = *simd;
-                simd.vectorize(|| {
-                    t8.closest::<false, _>(&wide8::BoxRay8::new(simd, ray), t_range.min, t_range.max, tally, &mut leaf)
-                });
-            } else {
-                tree.closest::<false, _>(&BoxRay::new(ray), t_range.min, t_range.max, tally, leaf);
-            }
             if let Some((h, packet, lane)) = found {
                 let packet = &packets[packet as usize];
                 best = Some(PrimitiveHit { hit: h.hit(&packet.triangle(lane)), primitive: packet.id(lane) });
@@ -340,21 +391,19 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             return true;
         }
         if let Some(Triangles { tree, packets, tree8, .. }) = &self.triangles {
-            let range = Interval::new(0.0, t_max);
-            let mut sheared = None;
-            let mut leaf = |leaf, tally: &mut T| {
-                let (first, count) = leaf_range(leaf);
-                for _ in 0..count {
-                    tally.tested();
+            let hit = match tree8 {
+                #[cfg(target_arch = "x86_64")]
+                Some((simd, tree8)) => {
+                    let simd = *simd;
+                    let mut leaf = OccludedLeaf::new(simd, packets, ray, t_max);
+                    avx2::closest::<true, _, _>(simd, tree8, ray, (0.0, t_max), tally, &mut leaf);
+                    leaf.hit
                 }
-                let Some(sheared) = sheared.get_or_insert_with(|| ShearedRay::new(ray)) else { return false };
-                occluded_in_leaf(packets, first, count, sheared, range)
-            };
-            let hit = if let Some((simd, t8)) = tree8 {
-                let simd = *simd;
-                simd.vectorize(|| t8.any(&wide8::BoxRay8::new(simd, ray), t_max, tally, &mut leaf))
-            } else {
-                tree.any(&BoxRay::new(ray), t_max, tally, leaf)
+                _ => {
+                    let mut leaf = OccludedLeaf::new(Portable, packets, ray, t_max);
+                    tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
+                    leaf.hit
+                }
             };
             if hit {
                 return true;

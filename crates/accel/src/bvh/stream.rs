@@ -7,7 +7,7 @@ use glam::Vec4;
 use raylume_geometry::{Interval, Ray, Vec3A};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
-use super::triangles::Packet;
+use super::triangles::{Filter, Packet, Portable};
 use super::wide::{Frustum, WideTree, crosses_every_slab, leaf_range, reciprocals};
 use super::{closest_in_leaf, occluded_in_leaf};
 
@@ -144,7 +144,7 @@ fn walk<const ANY: bool>(
     let frustum = Frustum::new(rays, negative);
     let mut state = Rays::new(rays, t_max);
     let start = state.t_max();
-    tree.closest::<ANY, _>(&frustum, t_min, start, &mut (), |leaf, _, _| {
+    tree.closest::<ANY, _>(&frustum, t_min, start, &mut (), &mut |leaf, _, _: &mut ()| {
         let (first, count) = leaf_range(leaf);
         state.each_in_box(&leaf_bounds[first], negative, t_min, |i, sheared, t_max| {
             test(i, first, count, sheared, t_max)
@@ -166,7 +166,8 @@ pub(super) fn closest(
     found: &mut [Option<(TriangleHit, u32, u32)>],
 ) {
     walk::<false>(tree, leaf_bounds, rays, negative, t_min, t_max, |i, first, count, sheared, t_max| {
-        closest_in_leaf(packets, first, count, sheared, Interval::new(t_min, t_max), &mut found[i])
+        let lanes = Portable.leaf_candidates(packets, first, count, sheared);
+        closest_in_leaf(packets, first, lanes, sheared, Interval::new(t_min, t_max), &mut found[i])
     });
 }
 
@@ -182,7 +183,8 @@ pub(super) fn occluded(
     occluded: &mut [bool],
 ) {
     walk::<true>(tree, leaf_bounds, rays, negative, 0.0, t_max, |i, first, count, sheared, t_max| {
-        if occluded_in_leaf(packets, first, count, sheared, Interval::new(0.0, t_max)) {
+        let lanes = Portable.leaf_candidates(packets, first, count, sheared);
+        if occluded_in_leaf(packets, first, lanes, sheared, Interval::new(0.0, t_max)) {
             occluded[i] = true;
             f32::NEG_INFINITY
         } else {

@@ -17,7 +17,7 @@ const NO_ID: u32 = u32::MAX;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub(super) struct Packet {
-    v: [[[f32; LANES]; 3]; 3],
+    pub v: [[[f32; LANES]; 3]; 3],
     id: [u32; LANES],
 }
 
@@ -83,6 +83,29 @@ pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let on_edge = u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero);
     let rejected = (negative & positive).bitmask() & !on_edge.bitmask();
     !rejected & ((1 << count) - 1)
+}
+
+/// How a leaf's candidate triangles are found: four lanes at a time ([`Portable`]), or eight in AVX
+/// registers (`pulp::x86::V3`).
+pub(super) trait Filter: Copy {
+    /// The candidate lanes of a leaf of `count` triangles in packets from `first`: bit `4 j + l` for
+    /// lane `l` of packet `first + j`.
+    fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32;
+}
+
+/// The filter of baseline x86-64 (and of every other target): one packet at a time.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Portable;
+
+impl Filter for Portable {
+    #[inline(always)]
+    fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
+        let mut lanes = 0;
+        for j in 0..count.div_ceil(LANES) {
+            lanes |= candidates(&packets[first + j], ray, (count - j * LANES).min(LANES)) << (j * LANES);
+        }
+        lanes
+    }
 }
 
 #[cfg(test)]

@@ -250,6 +250,20 @@ const HIT_COUNT: [u8; 16] = {
     t
 };
 
+/// What a walk does at each leaf it reaches: tests the leaf's items and returns the new end of the
+/// ray's range (below `t_min` ends an any-hit walk). Closures are leaf tests; the triangles' tests are
+/// types whose method is always inlined, so that they are compiled with the walk's target features.
+pub(super) trait LeafTest<T> {
+    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32;
+}
+
+impl<T, F: FnMut(u32, f32, &mut T) -> f32> LeafTest<T> for F {
+    #[inline(always)]
+    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
+        self(leaf, t_max, tally)
+    }
+}
+
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
 #[inline(always)]
 pub(super) fn order_key(f: f32) -> u32 {
@@ -309,7 +323,7 @@ impl<const W: usize> WideTree<W> {
         t_min: f32,
         mut t_max: f32,
         tally: &mut T,
-        mut leaf: impl FnMut(u32, f32, &mut T) -> f32,
+        leaf: &mut impl LeafTest<T>,
     ) {
         // Down to the first node with two children or more, no stack is needed: many rays (those that
         // miss the mesh near its silhouette) end on that path, and clearing a stack is a large part
@@ -317,7 +331,7 @@ impl<const W: usize> WideTree<W> {
         let mut cur = self.root;
         let (near, mask) = loop {
             if cur & LEAF != 0 {
-                leaf(cur, t_max, tally);
+                leaf.test(cur, t_max, tally);
                 return;
             }
             let node = &self.nodes[cur as usize];
@@ -360,7 +374,7 @@ impl<const W: usize> WideTree<W> {
                     continue;
                 }
             } else {
-                t_max = leaf(cur, t_max, tally);
+                t_max = leaf.test(cur, t_max, tally);
                 if ANY && t_max < t_min {
                     // An any-hit query has its answer.
                     return;
@@ -391,7 +405,7 @@ impl<const W: usize> WideTree<W> {
         mut leaf: impl FnMut(u32, &mut T) -> bool,
     ) -> bool {
         let mut hit = false;
-        self.closest::<true, T>(ray, 0.0, t_max, tally, |r, t, tally| {
+        self.closest::<true, T>(ray, 0.0, t_max, tally, &mut |r, t, tally: &mut T| {
             if leaf(r, tally) {
                 hit = true;
                 f32::NEG_INFINITY

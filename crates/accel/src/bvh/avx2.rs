@@ -1,0 +1,272 @@
+//! The kernels for CPUs with AVX2: the box test of eight-wide nodes in 256-bit registers (the same
+//! operations as [`BoxRay`](super::wide::BoxRay)'s, on eight children at once), their children ordered
+//! by a sorting network, and the candidate filter of a leaf's two packets of triangles at once.
+//!
+//! Queries that use it run inside [`V3::vectorize`], which compiles them with AVX2 enabled; the token
+//! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
+
+use pulp::x86::V3;
+use raylume_geometry::{Ray, Vec3A};
+use raylume_intersect::ShearedRay;
+use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ};
+
+use super::triangles::{Filter, LANES, Packet, Portable};
+use super::wide::{LeafTest, NodeTest, WideNode, WideTree, reciprocals};
+use crate::Tally;
+
+/// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
+#[inline(always)]
+pub(super) fn closest<const ANY: bool, T: Tally, L: LeafTest<T>>(
+    simd: V3,
+    tree: &WideTree<8>,
+    ray: &Ray,
+    t_range: (f32, f32),
+    tally: &mut T,
+    leaf: &mut L,
+) {
+    simd.vectorize(Walk::<ANY, T, L> { simd, tree, ray, t_range, tally, leaf })
+}
+
+/// The walk's arguments: a function object whose call is always inlined into the AVX2 function that
+/// `vectorize` makes (a closure's call need not be, and the intrinsics then stay calls). Small enough
+/// for `vectorize` to pass it in registers.
+struct Walk<'a, const ANY: bool, T, L> {
+    simd: V3,
+    tree: &'a WideTree<8>,
+    ray: &'a Ray,
+    t_range: (f32, f32),
+    tally: &'a mut T,
+    leaf: &'a mut L,
+}
+
+impl<const ANY: bool, T: Tally, L: LeafTest<T>> pulp::NullaryFnOnce for Walk<'_, ANY, T, L> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let (t_min, t_max) = self.t_range;
+        self.tree.closest::<ANY, T>(&BoxRay8::new(self.simd, self.ray), t_min, t_max, self.tally, self.leaf)
+    }
+}
+
+/// A ray prepared for the eight-wide box test: per axis, the origin and the reciprocal direction for
+/// the near and the far planes, splatted, and which plane is entered first.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BoxRay8 {
+    simd: V3,
+    origin: [__m256; 3],
+    inv_near: [__m256; 3],
+    inv_far: [__m256; 3],
+    negative: [bool; 3],
+}
+
+impl BoxRay8 {
+    /// `ray` prepared as [`BoxRay::new`](super::wide::BoxRay::new) prepares it.
+    #[inline(always)]
+    pub fn new(simd: V3, ray: &Ray) -> Self {
+        let d = ray.dir;
+        let parallel = d.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
+        let (inv, inv_far) = reciprocals(d);
+        let inv_near = Vec3A::select(parallel, Vec3A::INFINITY, inv).to_array();
+        let inv_far = Vec3A::select(parallel, Vec3A::INFINITY, inv_far).to_array();
+        let negative = (d.cmplt(Vec3A::ZERO) & !parallel).bitmask();
+        let o = ray.origin.to_array();
+        let avx = simd.avx;
+        Self {
+            simd,
+            origin: [avx._mm256_set1_ps(o[0]), avx._mm256_set1_ps(o[1]), avx._mm256_set1_ps(o[2])],
+            inv_near: [
+                avx._mm256_set1_ps(inv_near[0]),
+                avx._mm256_set1_ps(inv_near[1]),
+                avx._mm256_set1_ps(inv_near[2]),
+            ],
+            inv_far: [avx._mm256_set1_ps(inv_far[0]), avx._mm256_set1_ps(inv_far[1]), avx._mm256_set1_ps(inv_far[2])],
+            negative: [negative & 1 != 0, negative & 2 != 0, negative & 4 != 0],
+        }
+    }
+}
+
+impl NodeTest<8> for BoxRay8 {
+    #[inline(always)]
+    fn intersect(&self, node: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+        let avx = self.simd.avx;
+        let mut near = avx._mm256_set1_ps(t_min);
+        let mut far = avx._mm256_set1_ps(t_max);
+        for a in 0..3 {
+            let neg = self.negative[a] as usize;
+            let lo: __m256 = pulp::cast(node.bounds[2 * a + neg]);
+            let hi: __m256 = pulp::cast(node.bounds[2 * a + 1 - neg]);
+            let tn = avx._mm256_mul_ps(avx._mm256_sub_ps(lo, self.origin[a]), self.inv_near[a]);
+            let tf = avx._mm256_mul_ps(avx._mm256_sub_ps(hi, self.origin[a]), self.inv_far[a]);
+            // As in the four-wide test: a NaN product leaves the bound as it was.
+            near = avx._mm256_max_ps(tn, near);
+            far = avx._mm256_min_ps(tf, far);
+        }
+        let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+        (pulp::cast(near), mask)
+    }
+
+    /// The keys as the default method makes them, sorted by a bitonic network in one register.
+    #[inline(always)]
+    fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
+        let (avx, avx2) = (self.simd.avx, self.simd.avx2);
+        let bits: __m256i = pulp::cast(near);
+        // order_key: flip the sign bit of positive floats, every bit of negative ones.
+        let flip = avx2._mm256_or_si256(avx2._mm256_srai_epi32::<31>(bits), avx._mm256_set1_epi32(i32::MIN));
+        let slots = avx._mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let key = avx2._mm256_or_si256(
+            avx2._mm256_andnot_si256(avx._mm256_set1_epi32(7), avx2._mm256_xor_si256(bits, flip)),
+            slots,
+        );
+        let lane_bit = avx2._mm256_sllv_epi32(avx._mm256_set1_epi32(1), slots);
+        let missed = avx2._mm256_cmpeq_epi32(
+            avx2._mm256_and_si256(avx._mm256_set1_epi32(mask as i32), lane_bit),
+            avx._mm256_setzero_si256(),
+        );
+        let mut k = avx2._mm256_or_si256(key, missed);
+        // Lane i of each layer keeps the smaller key of itself and lane i ^ j when the bit of i in the
+        // layer's constant is set (Batcher's bitonic sort, ascending).
+        macro_rules! layer {
+            ($partner:expr, $min_lanes:literal) => {{
+                let p = $partner;
+                let (lo, hi) = (avx2._mm256_min_epu32(k, p), avx2._mm256_max_epu32(k, p));
+                k = avx2._mm256_blend_epi32::<$min_lanes>(hi, lo);
+            }};
+        }
+        layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x99);
+        layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0xC3);
+        layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0xA5);
+        layer!(avx2._mm256_permute2x128_si256::<0x01>(k, k), 0x0F);
+        layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0x33);
+        layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x55);
+        pulp::cast(k)
+    }
+}
+
+impl Filter for V3 {
+    /// [`Portable`]'s filter with the very operations of [`candidates`](super::triangles::candidates),
+    /// on both packets of a two-packet leaf at once.
+    #[inline(always)]
+    fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
+        if count <= LANES {
+            return Portable.leaf_candidates(packets, first, count, ray);
+        }
+        // No closures here: each must be inlined for its intrinsics to be (see `Walk`).
+        let avx = self.avx;
+        let (p, q) = (&packets[first], &packets[first + 1]);
+        let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
+        let (sx, sy) = (avx._mm256_set1_ps(ray.shear[0]), avx._mm256_set1_ps(ray.shear[1]));
+        let o = ray.origin.to_array();
+        let (ox, oy, oz) = (avx._mm256_set1_ps(o[kx]), avx._mm256_set1_ps(o[ky]), avx._mm256_set1_ps(o[kz]));
+        // Vertex k's coordinates along the ray's frame, sheared, for both packets.
+        macro_rules! sheared {
+            ($k:literal) => {{
+                let x = avx._mm256_set_m128(pulp::cast(q.v[$k][kx]), pulp::cast(p.v[$k][kx]));
+                let y = avx._mm256_set_m128(pulp::cast(q.v[$k][ky]), pulp::cast(p.v[$k][ky]));
+                let z = avx._mm256_set_m128(pulp::cast(q.v[$k][kz]), pulp::cast(p.v[$k][kz]));
+                let az = avx._mm256_sub_ps(z, oz);
+                (
+                    avx._mm256_sub_ps(avx._mm256_sub_ps(x, ox), avx._mm256_mul_ps(sx, az)),
+                    avx._mm256_sub_ps(avx._mm256_sub_ps(y, oy), avx._mm256_mul_ps(sy, az)),
+                )
+            }};
+        }
+        let ((ax, ay), (bx, by), (cx, cy)) = (sheared!(0), sheared!(1), sheared!(2));
+        macro_rules! edge {
+            ($p:ident, $q:ident, $r:ident, $s:ident) => {
+                avx._mm256_sub_ps(avx._mm256_mul_ps($p, $q), avx._mm256_mul_ps($r, $s))
+            };
+        }
+        let (u, v, w) = (edge!(cx, by, cy, bx), edge!(ax, cy, ay, cx), edge!(bx, ay, by, ax));
+        let zero = avx._mm256_setzero_ps();
+        // The lanes where any of the three edge functions compares with zero as `$op`.
+        macro_rules! any {
+            ($op:ident) => {
+                avx._mm256_or_ps(
+                    avx._mm256_or_ps(avx._mm256_cmp_ps::<$op>(u, zero), avx._mm256_cmp_ps::<$op>(v, zero)),
+                    avx._mm256_cmp_ps::<$op>(w, zero),
+                )
+            };
+        }
+        let (negative, positive, on_edge) = (any!(_CMP_LT_OQ), any!(_CMP_GT_OQ), any!(_CMP_EQ_OQ));
+        let rejected = avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32
+            & !(avx._mm256_movemask_ps(on_edge) as u32);
+        !rejected & ((1 << count) - 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+    use raylume_geometry::Triangle;
+
+    use super::*;
+
+    /// The default ordering of [`NodeTest`], for comparison.
+    struct Scalar;
+
+    impl NodeTest<8> for Scalar {
+        fn intersect(&self, _: &WideNode<8>, _: f32, _: f32) -> ([f32; 8], u32) {
+            unreachable!()
+        }
+    }
+
+    fn arb_distance() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            Just(0.0f32),
+            Just(-0.0f32),
+            Just(f32::INFINITY),
+            Just(f32::MAX),
+            Just(1.5f32),
+            -10.0f32..10.0,
+            any::<f32>().prop_filter("not NaN", |x| !x.is_nan()),
+        ]
+    }
+
+    fn arb_point() -> impl Strategy<Value = Vec3A> {
+        // Small integers make shared vertices, axis-parallel edges and exact zeros common.
+        prop_oneof![
+            prop::array::uniform3(-3i8..=3).prop_map(|a| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32)),
+            prop::array::uniform3(-10.0f32..10.0).prop_map(Vec3A::from_array),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The eight-lane filter of a leaf of five to eight triangles finds the candidates the
+        /// four-lane one finds, rays through vertices and edges included.
+        #[test]
+        fn eight_lanes_filter_as_four(
+            verts in prop::collection::vec(prop::array::uniform3(arb_point()), 5..=8),
+            o in arb_point(),
+            target in arb_point(),
+            through in prop::option::of((0usize..8, 0usize..3, prop_oneof![Just(0.0f32), Just(0.5f32), 0.0f32..1.0])),
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let target = match through {
+                Some((t, e, s)) => {
+                    let v = verts[t % verts.len()];
+                    v[e] + (v[(e + 1) % 3] - v[e]) * s
+                }
+                None => target,
+            };
+            prop_assume!(target != o);
+            let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
+            let tris: Vec<_> = verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), i as u32)).collect();
+            let packets = [Packet::new(tris[..4].iter().copied()), Packet::new(tris[4..].iter().copied())];
+            let expected = Portable.leaf_candidates(&packets, 0, tris.len(), &ray);
+            let got = simd.vectorize(|| simd.leaf_candidates(&packets, 0, tris.len(), &ray));
+            prop_assert_eq!(got, expected);
+        }
+
+        /// The network sorts the children's keys as the scalar ordering does: equal distances and
+        /// signed zeros included, missed children last.
+        #[test]
+        fn network_orders_as_the_scalar_sort(near in prop::array::uniform8(arb_distance()), mask in 0u32..256) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let ray = BoxRay8::new(simd, &Ray::new(Vec3A::ZERO, Vec3A::ONE));
+            let got = simd.vectorize(|| ray.order(near, mask));
+            prop_assert_eq!(got, Scalar.order(near, mask));
+        }
+    }
+}
