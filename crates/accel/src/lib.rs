@@ -22,7 +22,7 @@ mod bvh;
 mod grid;
 
 pub use brute::BruteForce;
-pub use bvh::{Bvh, BvhBuild};
+pub use bvh::{Bvh, BvhBuild, BvhKernel};
 pub use grid::{Grid, GridParams};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Hit;

@@ -68,11 +68,16 @@ type Query = Box<dyn Fn(&Ray, f32) -> (Option<PrimitiveHit>, bool)>;
 /// Every accelerator over `prims`, by name.
 fn all_accels(prims: &[Primitive], shutter: Interval) -> Vec<(&'static str, Query)> {
     let bvh = Bvh::new(prims.to_vec(), shutter);
+    let portable = bvh.clone().portable();
     let mid = Bvh::with_build(prims.to_vec(), shutter, BvhBuild::Midpoint);
     let grid = Grid::new(prims.to_vec(), shutter, GridParams::default());
     let grid_no_mailbox = Grid::new(prims.to_vec(), shutter, GridParams { k: 5.0, mailbox: false });
     vec![
         ("bvh", Box::new(move |r: &Ray, t: f32| (bvh.closest_hit(r, Interval::POSITIVE), bvh.occluded(r, t)))),
+        (
+            "bvh-portable",
+            Box::new(move |r: &Ray, t: f32| (portable.closest_hit(r, Interval::POSITIVE), portable.occluded(r, t))),
+        ),
         ("bvh-midpoint", Box::new(move |r: &Ray, t: f32| (mid.closest_hit(r, Interval::POSITIVE), mid.occluded(r, t)))),
         ("grid", Box::new(move |r: &Ray, t: f32| (grid.closest_hit(r, Interval::POSITIVE), grid.occluded(r, t)))),
         (
@@ -309,6 +314,7 @@ fn batches_match_single_rays() {
         }
         let shutter = Interval::new(0.0, 1.0);
         let bvh = Bvh::new(prims.clone(), shutter);
+        let portable = bvh.clone().portable();
         let grid = Grid::new(prims.clone(), shutter, GridParams::default());
         for b in 0..120 {
             let origin = point(&mut rng, 18.0);
@@ -327,7 +333,7 @@ fn batches_match_single_rays() {
             let t_max = uniform(&mut rng) * 40.0;
             let mut got = vec![None; rays.len()];
             let mut occluded = vec![false; rays.len()];
-            for (name, accel) in [("bvh", &bvh as &dyn BatchQueries), ("grid", &grid)] {
+            for (name, accel) in [("bvh", &bvh as &dyn BatchQueries), ("bvh-portable", &portable), ("grid", &grid)] {
                 accel.batch_closest(&rays, t_range, &mut got);
                 accel.batch_occluded(&rays, t_max, &mut occluded);
                 for (i, ray) in rays.iter().enumerate() {
@@ -392,6 +398,7 @@ fn batches_match_single_rays_at_extreme_scales() {
             );
         }
         let bvh = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
+        let portable = bvh.clone().portable();
         for b in 0..60 {
             let origin = offset + point(&mut rng, 20.0) * scale;
             let aim = offset + point(&mut rng, 6.0) * scale;
@@ -416,6 +423,9 @@ fn batches_match_single_rays_at_extreme_scales() {
                     got[i]
                 );
                 assert_eq!(occluded[i], bvh.occluded(ray, t_max), "scale {scale}: occlusion of {ray:?}");
+                // The portable kernel's single rays too (the batches above walk its tree).
+                assert!(same_hit(&prims, ray, expected, portable.closest_hit(ray, Interval::POSITIVE)));
+                assert_eq!(occluded[i], portable.occluded(ray, t_max), "scale {scale}: portable occlusion of {ray:?}");
                 hits += got[i].is_some() as usize;
             }
         }

@@ -11,6 +11,7 @@
 //! fixed workload for `valgrind --tool=callgrind --branch-sim=yes`, whose instruction and
 //! mispredicted-branch counts do not move with the machine's load (`RAYLUME_SPLIT_QUERY=closest` or
 //! `occluded` runs only that query; `RAYLUME_SPLIT_REPEAT=n` runs it n times, for a sampling profiler).
+//! `RAYLUME_KERNEL=portable` measures raylume's portable kernel where the CPU would pick AVX2.
 
 mod common;
 
@@ -54,7 +55,10 @@ fn main() {
     for mesh in meshes {
         let Some(w) = load_shared(&dir, &mesh, side) else { continue };
         let prims: Vec<Primitive> = w.triangles.iter().map(|&t| Primitive::Triangle(t)).collect();
-        let ours = Bvh::new(prims, Interval::new(0.0, 0.0));
+        let mut ours = Bvh::new(prims, Interval::new(0.0, 0.0));
+        if std::env::var("RAYLUME_KERNEL").is_ok_and(|k| k == "portable") {
+            ours = ours.portable();
+        }
         let theirs = Obvhs::build(&to_obvhs_triangles(&w.triangles));
         for (kind, rays) in [("camera", &w.camera), ("random", &w.random)] {
             // Split by obvhs's answer, so that raylume runs only the measured passes.

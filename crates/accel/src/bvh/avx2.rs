@@ -200,6 +200,7 @@ mod tests {
     use proptest::prelude::*;
     use raylume_geometry::Triangle;
 
+    use super::super::wide::BoxRay;
     use super::*;
 
     /// The default ordering of [`NodeTest`], for comparison.
@@ -231,8 +232,55 @@ mod tests {
         ]
     }
 
+    /// A node of `W` children with the given boxes (slots past them empty).
+    fn node_of<const W: usize>(boxes: &[(Vec3A, Vec3A)]) -> WideNode<W> {
+        let mut node = WideNode::<W>::EMPTY;
+        for (slot, (a, b)) in boxes.iter().enumerate() {
+            let (lo, hi) = (a.min(*b).to_array(), a.max(*b).to_array());
+            for axis in 0..3 {
+                node.bounds[2 * axis][slot] = lo[axis];
+                node.bounds[2 * axis + 1][slot] = hi[axis];
+            }
+        }
+        node
+    }
+
+    /// Zeros of both signs, a subnormal, small integers (origins on faces) and any value.
+    fn arb_component() -> impl Strategy<Value = f32> {
+        prop_oneof![Just(0.0f32), Just(-0.0f32), Just(1e-40f32), (-3i8..=3).prop_map(f32::from), -10.0f32..10.0]
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The eight-wide box test gives each child the entry distance and the verdict of the four-wide
+        /// one: axis-parallel and subnormal directions, origins on faces and empty slots included.
+        #[test]
+        fn eight_wide_box_test_is_the_four_wide_one(
+            boxes in prop::collection::vec((prop::array::uniform3(-3i8..=3), prop::array::uniform3(-3i8..=3)), 0..=8),
+            o in prop::array::uniform3(arb_component()),
+            d in prop::array::uniform3(arb_component()),
+            t_range in (0.0f32..2.0, prop_oneof![Just(f32::INFINITY), 0.0f32..20.0]),
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let boxes: Vec<_> = boxes.iter().map(|(a, b)| (Vec3A::from_array(a.map(f32::from)), Vec3A::from_array(b.map(f32::from)))).collect();
+            let ray = Ray::new(Vec3A::from_array(o), Vec3A::from_array(d));
+            if !ray.is_valid() {
+                return Ok(());
+            }
+            let (near, mask) = simd.vectorize(|| BoxRay8::new(simd, &ray).intersect(&node_of::<8>(&boxes), t_range.0, t_range.1));
+            let four = BoxRay::new(&ray);
+            for half in 0..2 {
+                let part = &boxes[(4 * half).min(boxes.len())..(4 * half + 4).min(boxes.len())];
+                let (near4, mask4) = four.intersect(&node_of::<4>(part), t_range.0, t_range.1);
+                prop_assert_eq!((mask >> (4 * half)) & 15, mask4);
+                for slot in 0..4 {
+                    if mask4 & (1 << slot) != 0 {
+                        prop_assert_eq!(near[4 * half + slot].to_bits(), near4[slot].to_bits());
+                    }
+                }
+            }
+        }
+
         /// The eight-lane filter of a leaf of five to eight triangles finds the candidates the
         /// four-lane one finds, rays through vertices and edges included.
         #[test]

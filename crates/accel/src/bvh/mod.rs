@@ -31,8 +31,27 @@ struct Triangles {
     tree: WideTree<4>,
     packets: Vec<Packet>,
     leaf_bounds: Vec<[f32; 6]>,
-    #[cfg(target_arch = "x86_64")]
-    tree8: Option<(pulp::x86::V3, WideTree<8>)>,
+    /// The same leaves under eight-wide nodes, for single rays on CPUs with AVX2.
+    wide: Option<WideKernel>,
+}
+
+/// The eight-wide tree and the token that proves the CPU runs its kernel.
+#[cfg(target_arch = "x86_64")]
+type WideKernel = (pulp::x86::V3, WideTree<8>);
+/// No eight-wide kernel on other targets.
+#[cfg(not(target_arch = "x86_64"))]
+type WideKernel = std::convert::Infallible;
+
+/// The kernel a [`Bvh`] answers single-ray queries with over its triangles ([`Bvh::kernel`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BvhKernel {
+    /// Nodes of four children tested in 128-bit registers, leaves filtered four triangles at a time:
+    /// baseline x86-64 (SSE2) and every other target.
+    Portable,
+    /// Nodes of eight children tested in 256-bit registers, leaves of eight triangles filtered at
+    /// once: chosen at build time on x86-64 CPUs with AVX2 (with FMA, BMI1/2 and LZCNT: the x86-64-v3
+    /// level). Batch queries and the shapes other than triangles keep the portable kernel.
+    Avx2,
 }
 
 /// A BVH over primitives.
@@ -93,6 +112,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let bin = build_binary(&mut tri_items, method, LANES, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
             let mut leaf_bounds = Vec::with_capacity(packets.capacity());
+            // Each leaf's reference, by its first item: the eight-wide tree points at the same packets.
             let mut leaf_of_first = vec![0u32; tri_items.len()];
             let tree = WideTree::collapse(&bin, |first, count, bounds| {
                 let start = packets.len();
@@ -108,16 +128,11 @@ impl<P: Intersect + Clone> Bvh<P> {
                 r
             });
             #[cfg(target_arch = "x86_64")]
-            let tree8 = pulp::x86::V3::try_new()
-                .filter(|_| std::env::var_os("RAYLUME_NO_AVX2").is_none())
+            let wide = pulp::x86::V3::try_new()
                 .map(|simd| (simd, WideTree::collapse(&bin, |first, _, _| leaf_of_first[first])));
-            Triangles {
-                tree,
-                packets,
-                leaf_bounds,
-                #[cfg(target_arch = "x86_64")]
-                tree8,
-            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let wide = None;
+            Triangles { tree, packets, leaf_bounds, wide }
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
@@ -239,11 +254,51 @@ impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
 }
 
 impl<P> Bvh<P> {
-    /// Number of nodes in the trees.
+    /// Number of nodes in the trees (the eight-wide kernel's included).
     pub fn node_count(&self) -> usize {
-        self.triangles.as_ref().map_or(0, |t| t.tree.node_count())
+        self.triangles
+            .as_ref()
+            .map_or(0, |t| t.tree.node_count() + t.wide.as_ref().map_or(0, |w| wide_tree(w).node_count()))
             + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
     }
+
+    /// The kernel of single-ray queries over the triangles: [`BvhKernel::Avx2`] when the CPU has it.
+    pub fn kernel(&self) -> BvhKernel {
+        match self.triangles.as_ref().and_then(|t| t.wide.as_ref()) {
+            Some(_) => BvhKernel::Avx2,
+            None => BvhKernel::Portable,
+        }
+    }
+
+    /// The same hierarchy answering every query with the portable kernel, as on CPUs without AVX2:
+    /// for comparisons and for tests of that kernel.
+    ///
+    /// ```
+    /// use raylume_accel::{Bvh, BvhKernel};
+    /// use raylume_geometry::{Interval, Triangle, Vec3A};
+    /// use raylume_intersect::Primitive;
+    /// let tri = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+    /// let bvh = Bvh::new(vec![Primitive::Triangle(tri)], Interval::new(0.0, 0.0)).portable();
+    /// assert_eq!(bvh.kernel(), BvhKernel::Portable);
+    /// ```
+    pub fn portable(mut self) -> Self {
+        if let Some(t) = &mut self.triangles {
+            t.wide = None;
+        }
+        self
+    }
+}
+
+/// The eight-wide kernel's tree.
+#[cfg(target_arch = "x86_64")]
+fn wide_tree(wide: &WideKernel) -> &WideTree<8> {
+    &wide.1
+}
+
+/// The eight-wide kernel's tree (none on this target).
+#[cfg(not(target_arch = "x86_64"))]
+fn wide_tree(wide: &WideKernel) -> &WideTree<8> {
+    match *wide {}
 }
 
 impl<P: Intersect> Bvh<P> {
@@ -356,9 +411,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(Triangles { tree, packets, tree8, .. }) = &self.triangles {
+        if let Some(Triangles { tree, packets, wide, .. }) = &self.triangles {
             let (t_min, t_max) = (t_range.min, t_range.max);
-            let found = match tree8 {
+            let found = match wide {
                 #[cfg(target_arch = "x86_64")]
                 Some((simd, tree8)) => {
                     let simd = *simd;
@@ -390,8 +445,8 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }) {
             return true;
         }
-        if let Some(Triangles { tree, packets, tree8, .. }) = &self.triangles {
-            let hit = match tree8 {
+        if let Some(Triangles { tree, packets, wide, .. }) = &self.triangles {
+            let hit = match wide {
                 #[cfg(target_arch = "x86_64")]
                 Some((simd, tree8)) => {
                     let simd = *simd;
@@ -443,8 +498,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn stats(&self) -> AccelStats {
         let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
         let mut primitives = self.unbounded.len();
-        if let Some(Triangles { tree, packets, leaf_bounds, .. }) = &self.triangles {
+        if let Some(Triangles { tree, packets, leaf_bounds, wide }) = &self.triangles {
             bytes += tree.bytes()
+                + wide.as_ref().map_or(0, |w| wide_tree(w).bytes())
                 + std::mem::size_of_val(packets.as_slice())
                 + std::mem::size_of_val(leaf_bounds.as_slice());
             primitives += packets.iter().map(Packet::len).sum::<usize>();

@@ -35,7 +35,7 @@ const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
 const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
 
 impl<const W: usize> WideNode<W> {
-    const EMPTY: Self = Self {
+    pub const EMPTY: Self = Self {
         bounds: [
             [f32::INFINITY; W],
             [f32::NEG_INFINITY; W],
