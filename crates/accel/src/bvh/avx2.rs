@@ -10,7 +10,7 @@ use raylume_geometry::{Ray, Vec3A};
 use raylume_intersect::ShearedRay;
 use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ};
 
-use super::triangles::{Filter, LANES, Packet, Portable};
+use super::triangles::{Filter, LANES, Packet};
 use super::wide::{LeafTest, NodeTest, WideNode, WideTree, reciprocals};
 use crate::Tally;
 
@@ -144,16 +144,14 @@ impl NodeTest<8> for BoxRay8 {
 }
 
 impl Filter for V3 {
-    /// [`Portable`]'s filter with the very operations of [`candidates`](super::triangles::candidates),
-    /// on both packets of a two-packet leaf at once.
+    /// [`Portable`](super::triangles::Portable)'s filter with the very operations of [`candidates`](super::triangles::candidates),
+    /// on both packets of a leaf at once.
     #[inline(always)]
     fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
-        if count <= LANES {
-            return Portable.leaf_candidates(packets, first, count, ray);
-        }
-        // No closures here: each must be inlined for its intrinsics to be (see `Walk`).
+        // A leaf of one packet tests it twice (its upper lanes are masked off below): no branch on the
+        // leaf's size. No closures here: each must be inlined for its intrinsics to be (see `Walk`).
         let avx = self.avx;
-        let (p, q) = (&packets[first], &packets[first + 1]);
+        let (p, q) = (&packets[first], &packets[first + (count > LANES) as usize]);
         let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
         let (sx, sy) = (avx._mm256_set1_ps(ray.shear[0]), avx._mm256_set1_ps(ray.shear[1]));
         let o = ray.origin.to_array();
@@ -200,6 +198,7 @@ mod tests {
     use proptest::prelude::*;
     use raylume_geometry::Triangle;
 
+    use super::super::triangles::Portable;
     use super::super::wide::BoxRay;
     use super::*;
 
@@ -281,11 +280,11 @@ mod tests {
             }
         }
 
-        /// The eight-lane filter of a leaf of five to eight triangles finds the candidates the
+        /// The eight-lane filter of a leaf of one to eight triangles finds the candidates the
         /// four-lane one finds, rays through vertices and edges included.
         #[test]
         fn eight_lanes_filter_as_four(
-            verts in prop::collection::vec(prop::array::uniform3(arb_point()), 5..=8),
+            verts in prop::collection::vec(prop::array::uniform3(arb_point()), 1..=8),
             o in arb_point(),
             target in arb_point(),
             through in prop::option::of((0usize..8, 0usize..3, prop_oneof![Just(0.0f32), Just(0.5f32), 0.0f32..1.0])),
@@ -301,7 +300,7 @@ mod tests {
             prop_assume!(target != o);
             let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
             let tris: Vec<_> = verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), i as u32)).collect();
-            let packets = [Packet::new(tris[..4].iter().copied()), Packet::new(tris[4..].iter().copied())];
+            let packets: Vec<Packet> = tris.chunks(LANES).map(|c| Packet::new(c.iter().copied())).collect();
             let expected = Portable.leaf_candidates(&packets, 0, tris.len(), &ray);
             let got = simd.vectorize(|| simd.leaf_candidates(&packets, 0, tris.len(), &ray));
             prop_assert_eq!(got, expected);
