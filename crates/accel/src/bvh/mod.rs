@@ -109,7 +109,10 @@ impl<P: Intersect + Clone> Bvh<P> {
         }
         assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
         let triangles = (!tri_items.is_empty()).then(|| {
-            let bin = build_binary(&mut tri_items, method, LANES, MAX_TRIANGLE_LEAF);
+            // The SAH counts a leaf's cost in the blocks its filter tests at once: eight triangles in AVX
+            // registers, else four.
+            let block = if avx2() { 2 * LANES } else { LANES };
+            let bin = build_binary(&mut tri_items, method, block, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
             let mut leaf_bounds = Vec::with_capacity(packets.capacity());
             // Each leaf's reference, by its first item: the eight-wide tree points at the same packets.
@@ -132,6 +135,7 @@ impl<P: Intersect + Clone> Bvh<P> {
                 .map(|simd| (simd, WideTree::collapse(&bin, |first, _, _| leaf_of_first[first])));
             #[cfg(not(target_arch = "x86_64"))]
             let wide = None;
+            debug_assert_eq!(wide.is_some(), avx2());
             Triangles { tree, packets, leaf_bounds, wide }
         });
         let others = (!items.is_empty()).then(|| {
@@ -287,6 +291,15 @@ impl<P> Bvh<P> {
         }
         self
     }
+}
+
+/// Whether the CPU runs the eight-wide kernel.
+fn avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    let available = pulp::x86::V3::is_available();
+    #[cfg(not(target_arch = "x86_64"))]
+    let available = false;
+    available
 }
 
 /// The eight-wide kernel's tree.
