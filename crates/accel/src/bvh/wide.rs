@@ -363,14 +363,14 @@ impl<const W: usize> WideTree<W> {
             &mut huge
         };
         let mut sp = 0;
-        cur = push_children(ray, &self.nodes[cur as usize], near, mask, stack, &mut sp);
+        cur = push_children::<ANY, W>(ray, &self.nodes[cur as usize], near, mask, stack, &mut sp);
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
                 tally.visited();
                 let (near, mask) = ray.intersect(node, t_min, t_max);
                 if mask != 0 {
-                    cur = push_children(ray, node, near, mask, stack, &mut sp);
+                    cur = push_children::<ANY, W>(ray, node, near, mask, stack, &mut sp);
                     continue;
                 }
             } else {
@@ -420,7 +420,7 @@ impl<const W: usize> WideTree<W> {
 /// Pushes the children of `node` in `mask` (not empty) but the nearest onto the stack, farthest
 /// first, and returns the nearest.
 #[inline(always)]
-fn push_children<const W: usize>(
+fn push_children<const ANY: bool, const W: usize>(
     ray: &impl NodeTest<W>,
     node: &WideNode<W>,
     near: [f32; W],
@@ -432,6 +432,20 @@ fn push_children<const W: usize>(
     mask &= mask - 1;
     if mask == 0 {
         return node.child[first];
+    }
+    if ANY && W == 8 {
+        // An any-hit walk of eight-wide nodes goes on with the nearest child and pushes the others
+        // unsorted: any hit ends it, so the order of the rest matters less than the sort costs.
+        let mut nearest = first;
+        while mask != 0 {
+            let slot = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let (go, push) = if near[slot] < near[nearest] { (slot, nearest) } else { (nearest, slot) };
+            nearest = go;
+            stack[*sp] = (node.child[push], near[push]);
+            *sp += 1;
+        }
+        return node.child[nearest];
     }
     let second = mask.trailing_zeros() as usize;
     mask &= mask - 1;
