@@ -6,7 +6,7 @@
 
 use rand_core::Rng;
 use rand_pcg::Pcg32;
-use raylume::accel::{Grid, GridParams};
+use raylume::accel::{BvhBuild, BvhKernel, Grid, GridParams};
 use raylume::geometry::{AaBox, Plane, Sphere, Triangle, offset_ray_origin, spawn_ray_to};
 use raylume::intersect::{intersect_moller_trumbore, intersect_watertight};
 use raylume::prelude::*;
@@ -35,9 +35,10 @@ fn t1_watertight_closed_icosphere() {
     assert_eq!((v.len(), f.len()), (642, 1280));
     let tris: Vec<Triangle> =
         f.iter().map(|t| Triangle::new(v[t[0] as usize], v[t[1] as usize], v[t[2] as usize])).collect();
-    let bvh = Bvh::new(tris.iter().map(|t| Primitive::Triangle(*t)).collect(), Interval::new(0.0, 0.0));
+    let prims: Vec<Primitive> = tris.iter().map(|t| Primitive::Triangle(*t)).collect();
+    let bvh = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
     // Both kernels: the eight-wide one where the CPU has AVX2, and the portable one.
-    let portable = bvh.clone().portable();
+    let portable = Bvh::with_kernel(prims, Interval::new(0.0, 0.0), BvhBuild::Sah, BvhKernel::Portable);
     // Edges for the edge-aimed rays.
     let edges: Vec<(u32, u32)> = f.iter().flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]).collect();
     let mut r = rng(1);
@@ -1043,8 +1044,8 @@ fn x1_accelerators_on_adversarial_scenes() {
         let shutter = Interval::new(0.0, 0.0);
         let brute = BruteForce::new(prims.clone());
         let bvh = Bvh::new(prims.clone(), shutter);
-        let portable = bvh.clone().portable();
-        let mid = Bvh::with_build(prims.clone(), shutter, raylume::accel::BvhBuild::Midpoint);
+        let portable = Bvh::with_kernel(prims.clone(), shutter, BvhBuild::Sah, BvhKernel::Portable);
+        let mid = Bvh::with_build(prims.clone(), shutter, BvhBuild::Midpoint);
         let grid = Grid::new(prims, shutter, GridParams::default());
         let bounds = bvh.bounds();
         for k in 0..50 {

@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
-use raylume_accel::{Accelerator, BruteForce, Bvh, BvhBuild, Grid, GridParams, PrimitiveHit};
+use raylume_accel::{Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Grid, GridParams, PrimitiveHit};
 use raylume_geometry::{AaBox, Aabb, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec3A};
 use raylume_intersect::Primitive;
 
@@ -68,7 +68,7 @@ type Query = Box<dyn Fn(&Ray, f32) -> (Option<PrimitiveHit>, bool)>;
 /// Every accelerator over `prims`, by name.
 fn all_accels(prims: &[Primitive], shutter: Interval) -> Vec<(&'static str, Query)> {
     let bvh = Bvh::new(prims.to_vec(), shutter);
-    let portable = bvh.clone().portable();
+    let portable = Bvh::with_kernel(prims.to_vec(), shutter, BvhBuild::Sah, BvhKernel::Portable);
     let mid = Bvh::with_build(prims.to_vec(), shutter, BvhBuild::Midpoint);
     let grid = Grid::new(prims.to_vec(), shutter, GridParams::default());
     let grid_no_mailbox = Grid::new(prims.to_vec(), shutter, GridParams { k: 5.0, mailbox: false });
@@ -314,7 +314,7 @@ fn batches_match_single_rays() {
         }
         let shutter = Interval::new(0.0, 1.0);
         let bvh = Bvh::new(prims.clone(), shutter);
-        let portable = bvh.clone().portable();
+        let portable = Bvh::with_kernel(prims.clone(), shutter, BvhBuild::Sah, BvhKernel::Portable);
         let grid = Grid::new(prims.clone(), shutter, GridParams::default());
         for b in 0..120 {
             let origin = point(&mut rng, 18.0);
@@ -398,7 +398,7 @@ fn batches_match_single_rays_at_extreme_scales() {
             );
         }
         let bvh = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
-        let portable = bvh.clone().portable();
+        let portable = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, BvhKernel::Portable);
         for b in 0..60 {
             let origin = offset + point(&mut rng, 20.0) * scale;
             let aim = offset + point(&mut rng, 6.0) * scale;

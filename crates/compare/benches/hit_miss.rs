@@ -18,7 +18,7 @@ mod common;
 use std::time::Instant;
 
 use common::{Obvhs, to_obvhs, to_obvhs_triangles};
-use raylume_accel::{Accelerator, Bvh, Counts};
+use raylume_accel::{Accelerator, Bvh, BvhBuild, BvhKernel, Counts};
 use raylume_compare::{load_shared, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
@@ -55,10 +55,11 @@ fn main() {
     for mesh in meshes {
         let Some(w) = load_shared(&dir, &mesh, side) else { continue };
         let prims: Vec<Primitive> = w.triangles.iter().map(|&t| Primitive::Triangle(t)).collect();
-        let mut ours = Bvh::new(prims, Interval::new(0.0, 0.0));
-        if std::env::var("RAYLUME_KERNEL").is_ok_and(|k| k == "portable") {
-            ours = ours.portable();
-        }
+        let kernel = match std::env::var("RAYLUME_KERNEL").as_deref() {
+            Ok("portable") => BvhKernel::Portable,
+            _ => BvhKernel::best(),
+        };
+        let ours = Bvh::with_kernel(prims, Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
         let theirs = Obvhs::build(&to_obvhs_triangles(&w.triangles));
         for (kind, rays) in [("camera", &w.camera), ("random", &w.random)] {
             // Split by obvhs's answer, so that raylume runs only the measured passes.

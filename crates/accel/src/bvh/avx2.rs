@@ -10,8 +10,12 @@ use raylume_geometry::{Ray, Vec3A};
 use raylume_intersect::ShearedRay;
 use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ};
 
+use raylume_intersect::TriangleHit;
+
+use super::Triangles;
+use super::stream::Leaves;
 use super::triangles::{Filter, LANES, Packet};
-use super::wide::{LeafTest, NodeTest, WideNode, WideTree, reciprocals};
+use super::wide::{Frustum, LeafTest, NodeTest, WideNode, WideTree, reciprocals};
 use crate::Tally;
 
 /// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
@@ -46,6 +50,135 @@ impl<const ANY: bool, T: Tally, L: LeafTest<T>> pulp::NullaryFnOnce for Walk<'_,
     fn call(self) {
         let (t_min, t_max) = self.t_range;
         self.tree.closest::<ANY, T>(&BoxRay8::new(self.simd, self.ray), t_min, t_max, self.tally, self.leaf)
+    }
+}
+
+/// A packet of rays prepared for the eight-wide box test: [`Frustum`]'s bounds, splatted.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Frustum8 {
+    simd: V3,
+    near_origin: [__m256; 3],
+    far_origin: [__m256; 3],
+    inv_near: [[__m256; 2]; 3],
+    inv_far: [[__m256; 2]; 3],
+    negative: [bool; 3],
+}
+
+impl Frustum8 {
+    /// The packet of `rays`, as [`Frustum::new`] makes it.
+    #[inline(always)]
+    fn new(simd: V3, rays: &[Ray], negative: [bool; 3]) -> Self {
+        let f = Frustum::new(rays, negative);
+        let avx = simd.avx;
+        let mut g = Self {
+            simd,
+            near_origin: [avx._mm256_setzero_ps(); 3],
+            far_origin: [avx._mm256_setzero_ps(); 3],
+            inv_near: [[avx._mm256_setzero_ps(); 2]; 3],
+            inv_far: [[avx._mm256_setzero_ps(); 2]; 3],
+            negative,
+        };
+        // Frustum's lanes are splats: lane 0 holds each value.
+        for a in 0..3 {
+            g.near_origin[a] = avx._mm256_set1_ps(f.near_origin[a].x);
+            g.far_origin[a] = avx._mm256_set1_ps(f.far_origin[a].x);
+            for e in 0..2 {
+                g.inv_near[a][e] = avx._mm256_set1_ps(f.inv_near[a][e].x);
+                g.inv_far[a][e] = avx._mm256_set1_ps(f.inv_far[a][e].x);
+            }
+        }
+        g
+    }
+}
+
+impl NodeTest<8> for Frustum8 {
+    /// [`Frustum`]'s test with the same operations, on eight children.
+    #[inline(always)]
+    fn intersect(&self, node: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+        let avx = self.simd.avx;
+        let mut near = avx._mm256_set1_ps(t_min);
+        let mut far = avx._mm256_set1_ps(t_max);
+        for a in 0..3 {
+            let neg = self.negative[a] as usize;
+            let lo: __m256 = pulp::cast(node.bounds[2 * a + neg]);
+            let hi: __m256 = pulp::cast(node.bounds[2 * a + 1 - neg]);
+            let [n0, n1] = self.inv_near[a];
+            let [f0, f1] = self.inv_far[a];
+            let x = avx._mm256_sub_ps(lo, self.near_origin[a]);
+            let y = avx._mm256_sub_ps(hi, self.far_origin[a]);
+            let tn = avx._mm256_min_ps(avx._mm256_mul_ps(x, n0), avx._mm256_mul_ps(x, n1));
+            let tf = avx._mm256_max_ps(avx._mm256_mul_ps(y, f0), avx._mm256_mul_ps(y, f1));
+            near = avx._mm256_max_ps(tn, near);
+            far = avx._mm256_min_ps(tf, far);
+        }
+        let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+        (pulp::cast(near), mask)
+    }
+}
+
+/// The batch closest-hit walk of a packet of `rays` (signs `negative`) down the eight-wide tree,
+/// compiled with AVX2 enabled; as [`Leaves::closest`].
+#[allow(clippy::too_many_arguments)]
+pub(super) fn closest_packet(
+    simd: V3,
+    tree: &WideTree<8>,
+    tris: &Triangles,
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_min: f32,
+    t_max: &[f32],
+    found: &mut [Option<(TriangleHit, u32, u32)>],
+) {
+    simd.vectorize(PacketWalk { simd, tree, tris, rays, negative, query: PacketQuery::Closest { t_min, t_max, found } })
+}
+
+/// The batch any-hit walk, as [`Leaves::occluded`], compiled with AVX2 enabled.
+pub(super) fn occluded_packet(
+    simd: V3,
+    tree: &WideTree<8>,
+    tris: &Triangles,
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_max: &[f32],
+    occluded: &mut [bool],
+) {
+    simd.vectorize(PacketWalk { simd, tree, tris, rays, negative, query: PacketQuery::Occluded { t_max, occluded } })
+}
+
+/// A packet query's own arguments.
+enum PacketQuery<'a> {
+    Closest { t_min: f32, t_max: &'a [f32], found: &'a mut [Option<(TriangleHit, u32, u32)>] },
+    Occluded { t_max: &'a [f32], occluded: &'a mut [bool] },
+}
+
+/// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
+struct PacketWalk<'a> {
+    simd: V3,
+    tree: &'a WideTree<8>,
+    tris: &'a Triangles,
+    rays: &'a [Ray],
+    negative: [bool; 3],
+    query: PacketQuery<'a>,
+}
+
+impl pulp::NullaryFnOnce for PacketWalk<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let leaves = Leaves {
+            tree: self.tree,
+            frustum: Frustum8::new(self.simd, self.rays, self.negative),
+            filter: self.simd,
+            packets: &self.tris.packets,
+            leaf_bounds: &self.tris.leaf_bounds,
+        };
+        match self.query {
+            PacketQuery::Closest { t_min, t_max, found } => {
+                leaves.closest(self.rays, self.negative, t_min, t_max, found)
+            }
+            PacketQuery::Occluded { t_max, occluded } => leaves.occluded(self.rays, self.negative, t_max, occluded),
+        }
     }
 }
 
@@ -268,6 +401,33 @@ mod tests {
             }
             let (near, mask) = simd.vectorize(|| BoxRay8::new(simd, &ray).intersect(&node_of::<8>(&boxes), t_range.0, t_range.1));
             let four = BoxRay::new(&ray);
+            for half in 0..2 {
+                let part = &boxes[(4 * half).min(boxes.len())..(4 * half + 4).min(boxes.len())];
+                let (near4, mask4) = four.intersect(&node_of::<4>(part), t_range.0, t_range.1);
+                prop_assert_eq!((mask >> (4 * half)) & 15, mask4);
+                for slot in 0..4 {
+                    if mask4 & (1 << slot) != 0 {
+                        prop_assert_eq!(near[4 * half + slot].to_bits(), near4[slot].to_bits());
+                    }
+                }
+            }
+        }
+
+        /// The packet's eight-wide box test is the four-wide one on each half of the children.
+        #[test]
+        fn eight_wide_frustum_is_the_four_wide_one(
+            boxes in prop::collection::vec((prop::array::uniform3(-3i8..=3), prop::array::uniform3(-3i8..=3)), 0..=8),
+            origins in prop::collection::vec(prop::array::uniform3(-6.0f32..6.0), 1..=6),
+            dirs in prop::collection::vec(prop::array::uniform3(0.001f32..1.0), 1..=6),
+            signs in prop::array::uniform3(any::<bool>()),
+            t_range in (0.0f32..2.0, prop_oneof![Just(f32::INFINITY), 0.0f32..20.0]),
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let boxes: Vec<_> = boxes.iter().map(|(a, b)| (Vec3A::from_array(a.map(f32::from)), Vec3A::from_array(b.map(f32::from)))).collect();
+            let flip = Vec3A::from_array(signs.map(|s| if s { -1.0 } else { 1.0 }));
+            let rays: Vec<Ray> = dirs.iter().zip(origins.iter().cycle()).map(|(d, o)| Ray::new(Vec3A::from_array(*o), Vec3A::from_array(*d) * flip)).collect();
+            let (near, mask) = simd.vectorize(|| Frustum8::new(simd, &rays, signs).intersect(&node_of::<8>(&boxes), t_range.0, t_range.1));
+            let four = Frustum::new(&rays, signs);
             for half in 0..2 {
                 let part = &boxes[(4 * half).min(boxes.len())..(4 * half + 4).min(boxes.len())];
                 let (near4, mask4) = four.intersect(&node_of::<4>(part), t_range.0, t_range.1);

@@ -15,7 +15,7 @@ use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
 use triangles::{Filter, LANES, Packet, Portable};
-use wide::{BoxRay, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -28,19 +28,55 @@ const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 /// at the leaf's first packet (the packet walk tests it for four rays at a time).
 #[derive(Clone, Debug)]
 struct Triangles {
-    tree: WideTree<4>,
+    tree: TriangleTree,
     packets: Vec<Packet>,
     leaf_bounds: Vec<[f32; 6]>,
-    /// The same leaves under eight-wide nodes, for single rays on CPUs with AVX2.
-    wide: Option<WideKernel>,
 }
 
-/// The eight-wide tree and the token that proves the CPU runs its kernel.
-#[cfg(target_arch = "x86_64")]
-type WideKernel = (pulp::x86::V3, WideTree<8>);
-/// No eight-wide kernel on other targets.
-#[cfg(not(target_arch = "x86_64"))]
-type WideKernel = std::convert::Infallible;
+/// The triangles' nodes, as the kernel walks them.
+#[derive(Clone, Debug)]
+enum TriangleTree {
+    /// Four-wide nodes, for [`BvhKernel::Portable`].
+    Portable(WideTree<4>),
+    /// Eight-wide nodes and the token that proves the CPU runs [`BvhKernel::Avx2`].
+    #[cfg(target_arch = "x86_64")]
+    Avx2(pulp::x86::V3, WideTree<8>),
+}
+
+impl Triangles {
+    /// The four-wide tree and filter for a packet of `rays` with the directions' signs `negative`.
+    fn portable_leaves<'a>(
+        &'a self,
+        tree: &'a WideTree<4>,
+        rays: &[Ray],
+        negative: [bool; 3],
+    ) -> stream::Leaves<'a, 4, Frustum, Portable> {
+        stream::Leaves {
+            tree,
+            frustum: Frustum::new(rays, negative),
+            filter: Portable,
+            packets: &self.packets,
+            leaf_bounds: &self.leaf_bounds,
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        match &self.tree {
+            TriangleTree::Portable(tree) => tree.bounds(),
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(_, tree) => tree.bounds(),
+        }
+    }
+
+    /// Nodes and their bytes.
+    fn nodes(&self) -> (usize, usize) {
+        match &self.tree {
+            TriangleTree::Portable(tree) => (tree.node_count(), tree.bytes()),
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(_, tree) => (tree.node_count(), tree.bytes()),
+        }
+    }
+}
 
 /// The kernel a [`Bvh`] answers single-ray queries with over its triangles ([`Bvh::kernel`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -49,9 +85,20 @@ pub enum BvhKernel {
     /// baseline x86-64 (SSE2) and every other target.
     Portable,
     /// Nodes of eight children tested in 256-bit registers, leaves of eight triangles filtered at
-    /// once: chosen at build time on x86-64 CPUs with AVX2 (with FMA, BMI1/2 and LZCNT: the x86-64-v3
-    /// level). Batch queries and the shapes other than triangles keep the portable kernel.
+    /// once: the choice of [`Bvh::new`] on x86-64 CPUs with AVX2 (with FMA, BMI1/2 and LZCNT: the
+    /// x86-64-v3 level). The shapes other than triangles keep the portable kernel.
     Avx2,
+}
+
+impl BvhKernel {
+    /// The fastest kernel this CPU runs.
+    pub fn best() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if pulp::x86::V3::is_available() {
+            return Self::Avx2;
+        }
+        Self::Portable
+    }
 }
 
 /// A BVH over primitives.
@@ -89,6 +136,25 @@ impl<P: Intersect + Clone> Bvh<P> {
     /// # Panics
     /// With more than 2^28 bounded primitives of one kind (triangles, or the others).
     pub fn with_build(prims: Vec<P>, shutter: Interval, method: BvhBuild) -> Self {
+        Self::with_kernel(prims, shutter, method, BvhKernel::best())
+    }
+
+    /// Builds the hierarchy with the given method for the given kernel; a kernel the CPU does not
+    /// run falls back to [`BvhKernel::Portable`] ([`Bvh::kernel`] tells which one answers).
+    ///
+    /// ```
+    /// use raylume_accel::{Bvh, BvhBuild, BvhKernel};
+    /// use raylume_geometry::{Interval, Triangle, Vec3A};
+    /// use raylume_intersect::Primitive;
+    /// let tri = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
+    /// let prims = vec![Primitive::Triangle(tri)];
+    /// let bvh = Bvh::with_kernel(prims, Interval::new(0.0, 0.0), BvhBuild::Sah, BvhKernel::Portable);
+    /// assert_eq!(bvh.kernel(), BvhKernel::Portable);
+    /// ```
+    ///
+    /// # Panics
+    /// With more than 2^28 bounded primitives of one kind (triangles, or the others).
+    pub fn with_kernel(prims: Vec<P>, shutter: Interval, method: BvhBuild, kernel: BvhKernel) -> Self {
         let mut tri_items = Vec::new();
         let mut tris = Vec::new();
         let mut items = Vec::new();
@@ -109,15 +175,17 @@ impl<P: Intersect + Clone> Bvh<P> {
         }
         assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
         let triangles = (!tri_items.is_empty()).then(|| {
+            #[cfg(target_arch = "x86_64")]
+            let simd = pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2);
+            #[cfg(not(target_arch = "x86_64"))]
+            let simd: Option<()> = None;
             // The SAH counts a leaf's cost in the blocks its filter tests at once: eight triangles in AVX
             // registers, else four.
-            let block = if avx2() { 2 * LANES } else { LANES };
+            let block = if simd.is_some() { 2 * LANES } else { LANES };
             let bin = build_binary(&mut tri_items, method, block, MAX_TRIANGLE_LEAF);
             let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
             let mut leaf_bounds = Vec::with_capacity(packets.capacity());
-            // Each leaf's reference, by its first item: the eight-wide tree points at the same packets.
-            let mut leaf_of_first = vec![0u32; tri_items.len()];
-            let tree = WideTree::collapse(&bin, |first, count, bounds| {
+            let leaf = |first: usize, count: usize, bounds: Aabb| {
                 let start = packets.len();
                 packets.extend(
                     tri_items[first..first + count]
@@ -126,17 +194,14 @@ impl<P: Intersect + Clone> Bvh<P> {
                 );
                 let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
                 leaf_bounds.resize(packets.len(), [min[0], min[1], min[2], max[0], max[1], max[2]]);
-                let r = leaf_ref(start, count);
-                leaf_of_first[first] = r;
-                r
-            });
-            #[cfg(target_arch = "x86_64")]
-            let wide = pulp::x86::V3::try_new()
-                .map(|simd| (simd, WideTree::collapse(&bin, |first, _, _| leaf_of_first[first])));
-            #[cfg(not(target_arch = "x86_64"))]
-            let wide = None;
-            debug_assert_eq!(wide.is_some(), avx2());
-            Triangles { tree, packets, leaf_bounds, wide }
+                leaf_ref(start, count)
+            };
+            let tree = match simd {
+                #[cfg(target_arch = "x86_64")]
+                Some(simd) => TriangleTree::Avx2(simd, WideTree::collapse(&bin, leaf)),
+                _ => TriangleTree::Portable(WideTree::collapse(&bin, leaf)),
+            };
+            Triangles { tree, packets, leaf_bounds }
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
@@ -147,7 +212,7 @@ impl<P: Intersect + Clone> Bvh<P> {
         });
         let bounds = triangles
             .iter()
-            .map(|t| t.tree.bounds())
+            .map(Triangles::bounds)
             .chain(others.iter().map(|(t, _, _)| t.bounds()))
             .fold(Aabb::EMPTY, Aabb::union);
         Self { triangles, others, unbounded, bounds }
@@ -258,60 +323,19 @@ impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
 }
 
 impl<P> Bvh<P> {
-    /// Number of nodes in the trees (the eight-wide kernel's included).
+    /// Number of nodes in the trees.
     pub fn node_count(&self) -> usize {
-        self.triangles
-            .as_ref()
-            .map_or(0, |t| t.tree.node_count() + t.wide.as_ref().map_or(0, |w| wide_tree(w).node_count()))
-            + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+        self.triangles.as_ref().map_or(0, |t| t.nodes().0) + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
     }
 
-    /// The kernel of single-ray queries over the triangles: [`BvhKernel::Avx2`] when the CPU has it.
+    /// The kernel of single-ray and batch queries over the triangles.
     pub fn kernel(&self) -> BvhKernel {
-        match self.triangles.as_ref().and_then(|t| t.wide.as_ref()) {
-            Some(_) => BvhKernel::Avx2,
-            None => BvhKernel::Portable,
+        match self.triangles.as_ref().map(|t| &t.tree) {
+            #[cfg(target_arch = "x86_64")]
+            Some(TriangleTree::Avx2(..)) => BvhKernel::Avx2,
+            _ => BvhKernel::Portable,
         }
     }
-
-    /// The same hierarchy answering every query with the portable kernel, as on CPUs without AVX2:
-    /// for comparisons and for tests of that kernel.
-    ///
-    /// ```
-    /// use raylume_accel::{Bvh, BvhKernel};
-    /// use raylume_geometry::{Interval, Triangle, Vec3A};
-    /// use raylume_intersect::Primitive;
-    /// let tri = Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y);
-    /// let bvh = Bvh::new(vec![Primitive::Triangle(tri)], Interval::new(0.0, 0.0)).portable();
-    /// assert_eq!(bvh.kernel(), BvhKernel::Portable);
-    /// ```
-    pub fn portable(mut self) -> Self {
-        if let Some(t) = &mut self.triangles {
-            t.wide = None;
-        }
-        self
-    }
-}
-
-/// Whether the CPU runs the eight-wide kernel.
-fn avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    let available = pulp::x86::V3::is_available();
-    #[cfg(not(target_arch = "x86_64"))]
-    let available = false;
-    available
-}
-
-/// The eight-wide kernel's tree.
-#[cfg(target_arch = "x86_64")]
-fn wide_tree(wide: &WideKernel) -> &WideTree<8> {
-    &wide.1
-}
-
-/// The eight-wide kernel's tree (none on this target).
-#[cfg(not(target_arch = "x86_64"))]
-fn wide_tree(wide: &WideKernel) -> &WideTree<8> {
-    match *wide {}
 }
 
 impl<P: Intersect> Bvh<P> {
@@ -384,9 +408,17 @@ impl<P: Intersect> Bvh<P> {
             hits.fill(None);
         }
         let mut found = [None; stream::PACKET];
-        let Triangles { tree, packets, leaf_bounds, .. } = tris;
-        let n = rays.len();
-        stream::closest(tree, packets, leaf_bounds, rays, negative, t_range.min, &t_max[..n], &mut found[..n]);
+        let (n, t_min) = (rays.len(), t_range.min);
+        match &tris.tree {
+            TriangleTree::Portable(tree) => {
+                tris.portable_leaves(tree, rays, negative).closest(rays, negative, t_min, &t_max[..n], &mut found[..n])
+            }
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(simd, tree) => {
+                avx2::closest_packet(*simd, tree, tris, rays, negative, t_min, &t_max[..n], &mut found[..n])
+            }
+        }
+        let packets = &tris.packets;
         for (hit, found) in hits.iter_mut().zip(found) {
             if let Some((h, packet, lane)) = found {
                 let packet = &packets[packet as usize];
@@ -405,8 +437,14 @@ impl<P: Intersect> Bvh<P> {
                 *end = f32::NEG_INFINITY;
             }
         }
-        let Triangles { tree, packets, leaf_bounds, .. } = tris;
-        stream::occluded(tree, packets, leaf_bounds, rays, negative, &ends[..rays.len()], occluded);
+        let ends = &ends[..rays.len()];
+        match &tris.tree {
+            TriangleTree::Portable(tree) => {
+                tris.portable_leaves(tree, rays, negative).occluded(rays, negative, ends, occluded)
+            }
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(simd, tree) => avx2::occluded_packet(*simd, tree, tris, rays, negative, ends, occluded),
+        }
         if self.others.is_some() {
             for (ray, o) in rays.iter().zip(occluded) {
                 *o = *o || self.occluded_other(ray, t_max, &mut ());
@@ -424,19 +462,18 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(Triangles { tree, packets, wide, .. }) = &self.triangles {
+        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
             let (t_min, t_max) = (t_range.min, t_range.max);
-            let found = match wide {
-                #[cfg(target_arch = "x86_64")]
-                Some((simd, tree8)) => {
-                    let simd = *simd;
-                    let mut leaf = ClosestLeaf::new(simd, packets, ray, t_min);
-                    avx2::closest::<false, _, _>(simd, tree8, ray, (t_min, t_max), tally, &mut leaf);
-                    leaf.found
-                }
-                _ => {
+            let found = match tree {
+                TriangleTree::Portable(tree) => {
                     let mut leaf = ClosestLeaf::new(Portable, packets, ray, t_min);
                     tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
+                    leaf.found
+                }
+                #[cfg(target_arch = "x86_64")]
+                TriangleTree::Avx2(simd, tree) => {
+                    let mut leaf = ClosestLeaf::new(*simd, packets, ray, t_min);
+                    avx2::closest::<false, _, _>(*simd, tree, ray, (t_min, t_max), tally, &mut leaf);
                     leaf.found
                 }
             };
@@ -458,18 +495,17 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }) {
             return true;
         }
-        if let Some(Triangles { tree, packets, wide, .. }) = &self.triangles {
-            let hit = match wide {
-                #[cfg(target_arch = "x86_64")]
-                Some((simd, tree8)) => {
-                    let simd = *simd;
-                    let mut leaf = OccludedLeaf::new(simd, packets, ray, t_max);
-                    avx2::closest::<true, _, _>(simd, tree8, ray, (0.0, t_max), tally, &mut leaf);
-                    leaf.hit
-                }
-                _ => {
+        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
+            let hit = match tree {
+                TriangleTree::Portable(tree) => {
                     let mut leaf = OccludedLeaf::new(Portable, packets, ray, t_max);
                     tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
+                    leaf.hit
+                }
+                #[cfg(target_arch = "x86_64")]
+                TriangleTree::Avx2(simd, tree) => {
+                    let mut leaf = OccludedLeaf::new(*simd, packets, ray, t_max);
+                    avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
                     leaf.hit
                 }
             };
@@ -511,11 +547,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn stats(&self) -> AccelStats {
         let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
         let mut primitives = self.unbounded.len();
-        if let Some(Triangles { tree, packets, leaf_bounds, wide }) = &self.triangles {
-            bytes += tree.bytes()
-                + wide.as_ref().map_or(0, |w| wide_tree(w).bytes())
-                + std::mem::size_of_val(packets.as_slice())
-                + std::mem::size_of_val(leaf_bounds.as_slice());
+        if let Some(t @ Triangles { packets, leaf_bounds, .. }) = &self.triangles {
+            bytes +=
+                t.nodes().1 + std::mem::size_of_val(packets.as_slice()) + std::mem::size_of_val(leaf_bounds.as_slice());
             primitives += packets.iter().map(Packet::len).sum::<usize>();
         }
         if let Some((tree, prims, ids)) = &self.others {

@@ -1,5 +1,5 @@
 //! Packets of coherent rays (the primary rays of a tile, say) walked down the triangle tree together:
-//! one box test per node for the whole packet ([`Frustum`]), then at each leaf the leaf's box tested
+//! one box test per node for the whole packet ([`Frustum`](super::wide::Frustum)), then at each leaf the leaf's box tested
 //! for four rays at a time and the leaf's triangles tested for each ray that meets the box, exactly as
 //! that ray alone would test them. Every ray gets the answer of the single-ray query.
 
@@ -7,8 +7,8 @@ use glam::Vec4;
 use raylume_geometry::{Interval, Ray, Vec3A};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
-use super::triangles::{Filter, Packet, Portable};
-use super::wide::{Frustum, WideTree, crosses_every_slab, leaf_range, reciprocals};
+use super::triangles::{Filter, Packet};
+use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals};
 use super::{closest_in_leaf, occluded_in_leaf};
 
 /// Rays per packet.
@@ -17,7 +17,7 @@ pub(super) const PACKET: usize = 64;
 const GROUPS: usize = PACKET / 4;
 
 /// The signs of the directions of `rays` along each axis, if every ray can be traced and they agree
-/// (and cross every slab): the rays that can share a [`Frustum`].
+/// (and cross every slab): the rays that can share a [`Frustum`](super::wide::Frustum).
 pub(super) fn common_signs(rays: &[Ray]) -> Option<[bool; 3]> {
     let first = rays.first()?;
     let signs = first.dir.cmplt(Vec3A::ZERO).bitmask();
@@ -95,15 +95,19 @@ impl<'a> Rays<'a> {
         self.t_max[..self.rays.len()].iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t))
     }
 
-    /// Calls `test(i, sheared ray, t_max)` for each ray `i` that meets the leaf's box `bounds` within
-    /// `[t_min, t_max[i]]` and sets its `t_max` to what `test` returns; returns the new largest one.
+    /// Calls `test.test(i, first, count, sheared ray, t_max)` for each ray `i` that meets the box
+    /// `bounds` of the leaf `(first, count)` within `[t_min, t_max[i]]` and sets its `t_max` to what
+    /// `test` returns; returns the new largest one.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn each_in_box(
         &mut self,
         bounds: &[f32; 6],
+        first: usize,
+        count: usize,
         negative: [bool; 3],
         t_min: f32,
-        mut test: impl FnMut(usize, &ShearedRay, f32) -> f32,
+        test: &mut impl RayTest,
     ) -> f32 {
         let plane = |a: usize, far: bool| Vec4::splat(bounds[3 * (negative[a] != far) as usize + a]);
         let near_plane = [plane(0, false), plane(1, false), plane(2, false)];
@@ -118,7 +122,7 @@ impl<'a> Rays<'a> {
                 lanes &= lanes - 1;
                 let ray = &self.rays[i];
                 self.t_max[i] = match self.sheared[i].get_or_insert_with(|| ShearedRay::new(ray)) {
-                    Some(sheared) => test(i, sheared, self.t_max[i]),
+                    Some(sheared) => test.test(i, first, count, sheared, self.t_max[i]),
                     None => f32::NEG_INFINITY,
                 };
             }
@@ -128,67 +132,107 @@ impl<'a> Rays<'a> {
     }
 }
 
-/// Walks the packet `rays` (signs `negative`) down `tree`; at each leaf (first packet, triangle
-/// count) `test(i, first, count, sheared ray, t_max)` tests it for each ray `i` that meets its box and
-/// returns the ray's new `t_max` (`-inf` retires the ray). With `ANY`, the walk stops once every ray
-/// is retired.
-fn walk<const ANY: bool>(
-    tree: &WideTree<4>,
-    leaf_bounds: &[[f32; 6]],
-    rays: &[Ray],
+/// What a packet walk does for each ray that meets a leaf's box: `test(i, first, count, sheared ray,
+/// t_max)` tests the leaf (first packet, triangle count) for ray `i` and returns the ray's new `t_max`
+/// (`-inf` retires the ray). Types whose method is always inlined, as [`LeafTest`]'s.
+trait RayTest {
+    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
+}
+
+/// The leaf test of a packet walk: the leaf's box for the packet's rays, then `test` for each ray in it.
+struct PacketLeaf<'a, 'r, R> {
+    state: Rays<'r>,
+    leaf_bounds: &'a [[f32; 6]],
     negative: [bool; 3],
     t_min: f32,
-    t_max: &[f32],
-    mut test: impl FnMut(usize, usize, usize, &ShearedRay, f32) -> f32,
-) {
-    let frustum = Frustum::new(rays, negative);
-    let mut state = Rays::new(rays, t_max);
-    let start = state.t_max();
-    tree.closest::<ANY, _>(&frustum, t_min, start, &mut (), &mut |leaf, _, _: &mut ()| {
+    test: R,
+}
+
+impl<R: RayTest> LeafTest<()> for PacketLeaf<'_, '_, R> {
+    #[inline(always)]
+    fn test(&mut self, leaf: u32, _: f32, _: &mut ()) -> f32 {
         let (first, count) = leaf_range(leaf);
-        state.each_in_box(&leaf_bounds[first], negative, t_min, |i, sheared, t_max| {
-            test(i, first, count, sheared, t_max)
-        })
-    });
+        self.state.each_in_box(&self.leaf_bounds[first], first, count, self.negative, self.t_min, &mut self.test)
+    }
 }
 
-/// The closest triangle hit of each ray of the packet `rays` (signs `negative`, see [`common_signs`])
-/// within `[t_min, t_max[i]]`, kept in `found[i]` as [`closest_in_leaf`] keeps it.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn closest(
-    tree: &WideTree<4>,
-    packets: &[Packet],
-    leaf_bounds: &[[f32; 6]],
-    rays: &[Ray],
-    negative: [bool; 3],
+/// The triangles a packet walks: the tree (of either width, with the packet's box test for it), the
+/// leaves' filter, the packets of triangles and each leaf's box.
+pub(super) struct Leaves<'a, const W: usize, N, F> {
+    pub tree: &'a WideTree<W>,
+    pub frustum: N,
+    pub filter: F,
+    pub packets: &'a [Packet],
+    pub leaf_bounds: &'a [[f32; 6]],
+}
+
+/// Each ray's closest hit, kept as [`closest_in_leaf`] keeps it.
+struct Closest<'a, F> {
+    filter: F,
+    packets: &'a [Packet],
     t_min: f32,
-    t_max: &[f32],
-    found: &mut [Option<(TriangleHit, u32, u32)>],
-) {
-    walk::<false>(tree, leaf_bounds, rays, negative, t_min, t_max, |i, first, count, sheared, t_max| {
-        let lanes = Portable.leaf_candidates(packets, first, count, sheared);
-        closest_in_leaf(packets, first, lanes, sheared, Interval::new(t_min, t_max), &mut found[i])
-    });
+    found: &'a mut [Option<(TriangleHit, u32, u32)>],
 }
 
-/// Whether each ray of the packet `rays` (signs `negative`) hits a triangle within `(0, t_max[i])`:
-/// sets `occluded[i]` for those that do.
-pub(super) fn occluded(
-    tree: &WideTree<4>,
-    packets: &[Packet],
-    leaf_bounds: &[[f32; 6]],
-    rays: &[Ray],
-    negative: [bool; 3],
-    t_max: &[f32],
-    occluded: &mut [bool],
-) {
-    walk::<true>(tree, leaf_bounds, rays, negative, 0.0, t_max, |i, first, count, sheared, t_max| {
-        let lanes = Portable.leaf_candidates(packets, first, count, sheared);
-        if occluded_in_leaf(packets, first, lanes, sheared, Interval::new(0.0, t_max)) {
-            occluded[i] = true;
+impl<F: Filter> RayTest for Closest<'_, F> {
+    #[inline(always)]
+    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
+        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
+        closest_in_leaf(self.packets, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found[i])
+    }
+}
+
+/// Whether each ray is occluded; an occluded ray retires.
+struct Occluded<'a, F> {
+    filter: F,
+    packets: &'a [Packet],
+    occluded: &'a mut [bool],
+}
+
+impl<F: Filter> RayTest for Occluded<'_, F> {
+    #[inline(always)]
+    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
+        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
+        if occluded_in_leaf(self.packets, first, lanes, sheared, Interval::new(0.0, t_max)) {
+            self.occluded[i] = true;
             f32::NEG_INFINITY
         } else {
             t_max
         }
-    });
+    }
+}
+
+impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
+    /// Walks the packet `rays` (signs `negative`) down the tree; `test` tests each leaf for each ray
+    /// that meets its box. With `ANY`, the walk stops once every ray is retired.
+    #[inline(always)]
+    fn walk<const ANY: bool>(&self, rays: &[Ray], negative: [bool; 3], t_min: f32, t_max: &[f32], test: impl RayTest) {
+        let state = Rays::new(rays, t_max);
+        let start = state.t_max();
+        let mut leaf = PacketLeaf { state, leaf_bounds: self.leaf_bounds, negative, t_min, test };
+        self.tree.closest::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
+    }
+
+    /// The closest triangle hit of each ray of the packet `rays` (signs `negative`, see
+    /// [`common_signs`]) within `[t_min, t_max[i]]`, kept in `found[i]` as [`closest_in_leaf`] keeps it.
+    #[inline(always)]
+    pub fn closest(
+        &self,
+        rays: &[Ray],
+        negative: [bool; 3],
+        t_min: f32,
+        t_max: &[f32],
+        found: &mut [Option<(TriangleHit, u32, u32)>],
+    ) {
+        let test = Closest { filter: self.filter, packets: self.packets, t_min, found };
+        self.walk::<false>(rays, negative, t_min, t_max, test);
+    }
+
+    /// Whether each ray of the packet `rays` (signs `negative`) hits a triangle within `(0, t_max[i])`:
+    /// sets `occluded[i]` for those that do.
+    #[inline(always)]
+    pub fn occluded(&self, rays: &[Ray], negative: [bool; 3], t_max: &[f32], occluded: &mut [bool]) {
+        let test = Occluded { filter: self.filter, packets: self.packets, occluded };
+        self.walk::<true>(rays, negative, 0.0, t_max, test);
+    }
 }

@@ -137,12 +137,12 @@ pub(super) fn crosses_every_slab(dir: Vec3A) -> bool {
 pub(super) struct Frustum {
     /// The origin coordinate that gives the smallest entry distance (the largest along the
     /// direction), and the one that gives the largest exit distance.
-    near_origin: [Vec4; 3],
-    far_origin: [Vec4; 3],
+    pub near_origin: [Vec4; 3],
+    pub far_origin: [Vec4; 3],
     /// The smallest and largest reciprocal of the near planes, then of the far ones.
-    inv_near: [[Vec4; 2]; 3],
-    inv_far: [[Vec4; 2]; 3],
-    negative: [bool; 3],
+    pub inv_near: [[Vec4; 2]; 3],
+    pub inv_far: [[Vec4; 2]; 3],
+    pub negative: [bool; 3],
 }
 
 impl Frustum {
