@@ -119,7 +119,7 @@ fn accelerators_render_identical_images() {
         scene.render(&o, &|| {}).unwrap().film
     };
     let reference = render(AccelKind::None);
-    for kind in [AccelKind::Bvh, AccelKind::BvhMidpoint, AccelKind::Grid] {
+    for kind in [AccelKind::Bvh, AccelKind::BvhPortable, AccelKind::BvhMidpoint, AccelKind::Grid] {
         assert_eq!(reference.pixels(), render(kind).pixels(), "{kind:?}");
     }
 }

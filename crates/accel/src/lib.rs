@@ -182,9 +182,12 @@ fn occluded_ray_by_ray<A: Accelerator + ?Sized>(accel: &A, rays: &[Ray], t_max: 
 pub enum AccelKind {
     /// A plain list: every primitive is tested by every ray.
     None,
-    /// A bounding volume hierarchy built with binned SAH.
+    /// A bounding volume hierarchy built with binned SAH, with the fastest kernel the CPU runs
+    /// ([`BvhKernel::best`]).
     #[default]
     Bvh,
+    /// The same hierarchy with the portable kernel ([`BvhKernel::Portable`]), as on CPUs without AVX2.
+    BvhPortable,
     /// The course's BVH: midpoint splits of the largest axis, leaves of at most 2 primitives.
     BvhMidpoint,
     /// A uniform grid with mailboxing.

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Counts, Grid, GridParams};
+use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Counts, Grid, GridParams};
 use raylume_geometry::{Interval, Ray};
 use raylume_scene::{Scene, rays};
 use rayon::prelude::*;
@@ -48,7 +48,12 @@ pub fn run(args: BenchArgs) -> Result<(), Failure> {
     let start = Instant::now();
     match args.accel {
         AccelKind::None => measure(&args, BruteForce::new(prims), start, n),
-        AccelKind::Bvh => measure(&args, Bvh::new(prims, shutter), start, n),
+        AccelKind::Bvh | AccelKind::BvhPortable => {
+            let kernel = if args.accel == AccelKind::Bvh { BvhKernel::best() } else { BvhKernel::Portable };
+            let bvh = Bvh::with_kernel(prims, shutter, BvhBuild::Sah, kernel);
+            println!("kernel              {:?}", bvh.kernel());
+            measure(&args, bvh, start, n)
+        }
         AccelKind::BvhMidpoint => measure(&args, Bvh::with_build(prims, shutter, BvhBuild::Midpoint), start, n),
         AccelKind::Grid => measure(&args, Grid::new(prims, shutter, args.grid), start, n),
     }

@@ -190,6 +190,7 @@ impl From<SamplerArg> for SamplerKind {
 enum AccelArg {
     None,
     Bvh,
+    BvhPortable,
     BvhMidpoint,
     Grid,
 }
@@ -353,6 +354,7 @@ fn accel_kind(a: AccelArg) -> AccelKind {
     match a {
         AccelArg::None => AccelKind::None,
         AccelArg::Bvh => AccelKind::Bvh,
+        AccelArg::BvhPortable => AccelKind::BvhPortable,
         AccelArg::BvhMidpoint => AccelKind::BvhMidpoint,
         AccelArg::Grid => AccelKind::Grid,
     }

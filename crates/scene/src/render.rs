@@ -2,7 +2,7 @@ use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, Grid, GridParams};
+use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Grid, GridParams};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
@@ -387,6 +387,7 @@ impl Scene {
         let (film, stats, build_seconds, render_seconds) = match kind {
             AccelKind::None => run!(BruteForce::new(primitives)),
             AccelKind::Bvh => run!(Bvh::new(primitives, shutter)),
+            AccelKind::BvhPortable => run!(Bvh::with_kernel(primitives, shutter, BvhBuild::Sah, BvhKernel::Portable)),
             AccelKind::BvhMidpoint => run!(Bvh::with_build(primitives, shutter, BvhBuild::Midpoint)),
             AccelKind::Grid => run!(Grid::new(primitives, shutter, options.grid)),
         };
