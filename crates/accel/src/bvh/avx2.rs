@@ -6,7 +6,7 @@
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
 
 use pulp::x86::V3;
-use raylume_geometry::{Ray, Vec3A};
+use raylume_geometry::Ray;
 use raylume_intersect::ShearedRay;
 use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ};
 
@@ -15,7 +15,7 @@ use raylume_intersect::TriangleHit;
 use super::Triangles;
 use super::stream::Leaves;
 use super::triangles::{Filter, LANES, Packet};
-use super::wide::{Frustum, LeafTest, NodeTest, WideNode, WideTree, reciprocals};
+use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, WideNode, WideTree};
 use crate::Tally;
 
 /// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
@@ -91,28 +91,43 @@ impl Frustum8 {
     }
 }
 
-impl NodeTest<8> for Frustum8 {
-    /// [`Frustum`]'s test with the same operations, on eight children.
-    #[inline(always)]
-    fn intersect(&self, node: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
-        let avx = self.simd.avx;
-        let mut near = avx._mm256_set1_ps(t_min);
-        let mut far = avx._mm256_set1_ps(t_max);
-        for a in 0..3 {
-            let neg = self.negative[a] as usize;
-            let lo: __m256 = pulp::cast(node.bounds[2 * a + neg]);
-            let hi: __m256 = pulp::cast(node.bounds[2 * a + 1 - neg]);
-            let [n0, n1] = self.inv_near[a];
-            let [f0, f1] = self.inv_far[a];
-            let x = avx._mm256_sub_ps(lo, self.near_origin[a]);
-            let y = avx._mm256_sub_ps(hi, self.far_origin[a]);
-            let tn = avx._mm256_min_ps(avx._mm256_mul_ps(x, n0), avx._mm256_mul_ps(x, n1));
-            let tf = avx._mm256_max_ps(avx._mm256_mul_ps(y, f0), avx._mm256_mul_ps(y, f1));
+/// The slab test of a node's eight children, as [`slabs`](super::wide) of the four-wide tests:
+/// `$planes(a, near planes, far planes)` gives the distances to axis `a`'s planes. A macro, not a
+/// function taking a closure: every intrinsic must be inlined (see `Walk`).
+macro_rules! slabs8 {
+    ($self:ident, $node:ident, $t_min:ident, $t_max:ident, |$a:ident, $lo:ident, $hi:ident| $planes:expr) => {{
+        let avx = $self.simd.avx;
+        let mut near = avx._mm256_set1_ps($t_min);
+        let mut far = avx._mm256_set1_ps($t_max);
+        for $a in 0..3 {
+            let neg = $self.negative[$a] as usize;
+            let $lo: __m256 = pulp::cast($node.bounds[2 * $a + neg]);
+            let $hi: __m256 = pulp::cast($node.bounds[2 * $a + 1 - neg]);
+            let (tn, tf) = $planes;
+            // As in the four-wide test: a NaN product leaves the bound as it was.
             near = avx._mm256_max_ps(tn, near);
             far = avx._mm256_min_ps(tf, far);
         }
         let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
         (pulp::cast(near), mask)
+    }};
+}
+
+impl NodeTest<8> for Frustum8 {
+    /// [`Frustum`]'s test with the same operations, on eight children.
+    #[inline(always)]
+    fn intersect(&self, node: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+        let avx = self.simd.avx;
+        slabs8!(self, node, t_min, t_max, |a, lo, hi| {
+            let [n0, n1] = self.inv_near[a];
+            let [f0, f1] = self.inv_far[a];
+            let x = avx._mm256_sub_ps(lo, self.near_origin[a]);
+            let y = avx._mm256_sub_ps(hi, self.far_origin[a]);
+            (
+                avx._mm256_min_ps(avx._mm256_mul_ps(x, n0), avx._mm256_mul_ps(x, n1)),
+                avx._mm256_max_ps(avx._mm256_mul_ps(y, f0), avx._mm256_mul_ps(y, f1)),
+            )
+        })
     }
 }
 
@@ -197,25 +212,17 @@ impl BoxRay8 {
     /// `ray` prepared as [`BoxRay::new`](super::wide::BoxRay::new) prepares it.
     #[inline(always)]
     pub fn new(simd: V3, ray: &Ray) -> Self {
-        let d = ray.dir;
-        let parallel = d.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
-        let (inv, inv_far) = reciprocals(d);
-        let inv_near = Vec3A::select(parallel, Vec3A::INFINITY, inv).to_array();
-        let inv_far = Vec3A::select(parallel, Vec3A::INFINITY, inv_far).to_array();
-        let negative = (d.cmplt(Vec3A::ZERO) & !parallel).bitmask();
-        let o = ray.origin.to_array();
+        let r = SlabRay::new(ray);
+        // No closure to splat with (see `Walk`).
         let avx = simd.avx;
-        Self {
-            simd,
-            origin: [avx._mm256_set1_ps(o[0]), avx._mm256_set1_ps(o[1]), avx._mm256_set1_ps(o[2])],
-            inv_near: [
-                avx._mm256_set1_ps(inv_near[0]),
-                avx._mm256_set1_ps(inv_near[1]),
-                avx._mm256_set1_ps(inv_near[2]),
-            ],
-            inv_far: [avx._mm256_set1_ps(inv_far[0]), avx._mm256_set1_ps(inv_far[1]), avx._mm256_set1_ps(inv_far[2])],
-            negative: [negative & 1 != 0, negative & 2 != 0, negative & 4 != 0],
+        let (mut origin, mut inv_near, mut inv_far) =
+            ([avx._mm256_setzero_ps(); 3], [avx._mm256_setzero_ps(); 3], [avx._mm256_setzero_ps(); 3]);
+        for a in 0..3 {
+            origin[a] = avx._mm256_set1_ps(r.origin[a]);
+            inv_near[a] = avx._mm256_set1_ps(r.inv_near[a]);
+            inv_far[a] = avx._mm256_set1_ps(r.inv_far[a]);
         }
+        Self { simd, origin, inv_near, inv_far, negative: r.negative }
     }
 }
 
@@ -223,20 +230,10 @@ impl NodeTest<8> for BoxRay8 {
     #[inline(always)]
     fn intersect(&self, node: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
         let avx = self.simd.avx;
-        let mut near = avx._mm256_set1_ps(t_min);
-        let mut far = avx._mm256_set1_ps(t_max);
-        for a in 0..3 {
-            let neg = self.negative[a] as usize;
-            let lo: __m256 = pulp::cast(node.bounds[2 * a + neg]);
-            let hi: __m256 = pulp::cast(node.bounds[2 * a + 1 - neg]);
-            let tn = avx._mm256_mul_ps(avx._mm256_sub_ps(lo, self.origin[a]), self.inv_near[a]);
-            let tf = avx._mm256_mul_ps(avx._mm256_sub_ps(hi, self.origin[a]), self.inv_far[a]);
-            // As in the four-wide test: a NaN product leaves the bound as it was.
-            near = avx._mm256_max_ps(tn, near);
-            far = avx._mm256_min_ps(tf, far);
-        }
-        let mask = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-        (pulp::cast(near), mask)
+        slabs8!(self, node, t_min, t_max, |a, lo, hi| (
+            avx._mm256_mul_ps(avx._mm256_sub_ps(lo, self.origin[a]), self.inv_near[a]),
+            avx._mm256_mul_ps(avx._mm256_sub_ps(hi, self.origin[a]), self.inv_far[a]),
+        ))
     }
 
     /// The keys as the default method makes them, sorted by a bitonic network in one register.
@@ -329,9 +326,10 @@ impl Filter for V3 {
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
-    use raylume_geometry::Triangle;
+    use raylume_geometry::{Triangle, Vec3A};
 
     use super::super::triangles::Portable;
+    use super::super::triangles::tests::arb_point;
     use super::super::wide::BoxRay;
     use super::*;
 
@@ -356,25 +354,29 @@ mod tests {
         ]
     }
 
-    fn arb_point() -> impl Strategy<Value = Vec3A> {
-        // Small integers make shared vertices, axis-parallel edges and exact zeros common.
-        prop_oneof![
-            prop::array::uniform3(-3i8..=3).prop_map(|a| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32)),
-            prop::array::uniform3(-10.0f32..10.0).prop_map(Vec3A::from_array),
-        ]
-    }
-
-    /// A node of `W` children with the given boxes (slots past them empty).
-    fn node_of<const W: usize>(boxes: &[(Vec3A, Vec3A)]) -> WideNode<W> {
-        let mut node = WideNode::<W>::EMPTY;
-        for (slot, (a, b)) in boxes.iter().enumerate() {
-            let (lo, hi) = (a.min(*b).to_array(), a.max(*b).to_array());
-            for axis in 0..3 {
-                node.bounds[2 * axis][slot] = lo[axis];
-                node.bounds[2 * axis + 1][slot] = hi[axis];
+    /// Checks an eight-wide box test's answer for `boxes` against `four`'s answer for each half.
+    fn matches_halves(
+        (near, mask): ([f32; 8], u32),
+        boxes: &[(Vec3A, Vec3A)],
+        four: impl Fn(&WideNode<4>) -> ([f32; 4], u32),
+    ) -> Result<(), TestCaseError> {
+        for half in 0..2 {
+            let part = &boxes[(4 * half).min(boxes.len())..(4 * half + 4).min(boxes.len())];
+            let (near4, mask4) = four(&WideNode::of_boxes(part));
+            prop_assert_eq!((mask >> (4 * half)) & 15, mask4);
+            for slot in 0..4 {
+                if mask4 & (1 << slot) != 0 {
+                    prop_assert_eq!(near[4 * half + slot].to_bits(), near4[slot].to_bits());
+                }
             }
         }
-        node
+        Ok(())
+    }
+
+    /// Up to eight boxes with small integer corners: shared faces and origins on faces are common.
+    fn arb_boxes() -> impl Strategy<Value = Vec<(Vec3A, Vec3A)>> {
+        let corner = || prop::array::uniform3(-3i8..=3).prop_map(|c| Vec3A::from_array(c.map(f32::from)));
+        prop::collection::vec((corner(), corner()), 0..=8)
     }
 
     /// Zeros of both signs, a subnormal, small integers (origins on faces) and any value.
@@ -388,56 +390,38 @@ mod tests {
         /// one: axis-parallel and subnormal directions, origins on faces and empty slots included.
         #[test]
         fn eight_wide_box_test_is_the_four_wide_one(
-            boxes in prop::collection::vec((prop::array::uniform3(-3i8..=3), prop::array::uniform3(-3i8..=3)), 0..=8),
+            boxes in arb_boxes(),
             o in prop::array::uniform3(arb_component()),
             d in prop::array::uniform3(arb_component()),
             t_range in (0.0f32..2.0, prop_oneof![Just(f32::INFINITY), 0.0f32..20.0]),
         ) {
             let Some(simd) = V3::try_new() else { return Ok(()) };
-            let boxes: Vec<_> = boxes.iter().map(|(a, b)| (Vec3A::from_array(a.map(f32::from)), Vec3A::from_array(b.map(f32::from)))).collect();
             let ray = Ray::new(Vec3A::from_array(o), Vec3A::from_array(d));
             if !ray.is_valid() {
                 return Ok(());
             }
-            let (near, mask) = simd.vectorize(|| BoxRay8::new(simd, &ray).intersect(&node_of::<8>(&boxes), t_range.0, t_range.1));
+            let node = WideNode::<8>::of_boxes(&boxes);
+            let eight = simd.vectorize(|| BoxRay8::new(simd, &ray).intersect(&node, t_range.0, t_range.1));
             let four = BoxRay::new(&ray);
-            for half in 0..2 {
-                let part = &boxes[(4 * half).min(boxes.len())..(4 * half + 4).min(boxes.len())];
-                let (near4, mask4) = four.intersect(&node_of::<4>(part), t_range.0, t_range.1);
-                prop_assert_eq!((mask >> (4 * half)) & 15, mask4);
-                for slot in 0..4 {
-                    if mask4 & (1 << slot) != 0 {
-                        prop_assert_eq!(near[4 * half + slot].to_bits(), near4[slot].to_bits());
-                    }
-                }
-            }
+            matches_halves(eight, &boxes, |node| four.intersect(node, t_range.0, t_range.1))?;
         }
 
         /// The packet's eight-wide box test is the four-wide one on each half of the children.
         #[test]
         fn eight_wide_frustum_is_the_four_wide_one(
-            boxes in prop::collection::vec((prop::array::uniform3(-3i8..=3), prop::array::uniform3(-3i8..=3)), 0..=8),
+            boxes in arb_boxes(),
             origins in prop::collection::vec(prop::array::uniform3(-6.0f32..6.0), 1..=6),
             dirs in prop::collection::vec(prop::array::uniform3(0.001f32..1.0), 1..=6),
             signs in prop::array::uniform3(any::<bool>()),
             t_range in (0.0f32..2.0, prop_oneof![Just(f32::INFINITY), 0.0f32..20.0]),
         ) {
             let Some(simd) = V3::try_new() else { return Ok(()) };
-            let boxes: Vec<_> = boxes.iter().map(|(a, b)| (Vec3A::from_array(a.map(f32::from)), Vec3A::from_array(b.map(f32::from)))).collect();
             let flip = Vec3A::from_array(signs.map(|s| if s { -1.0 } else { 1.0 }));
             let rays: Vec<Ray> = dirs.iter().zip(origins.iter().cycle()).map(|(d, o)| Ray::new(Vec3A::from_array(*o), Vec3A::from_array(*d) * flip)).collect();
-            let (near, mask) = simd.vectorize(|| Frustum8::new(simd, &rays, signs).intersect(&node_of::<8>(&boxes), t_range.0, t_range.1));
+            let node = WideNode::<8>::of_boxes(&boxes);
+            let eight = simd.vectorize(|| Frustum8::new(simd, &rays, signs).intersect(&node, t_range.0, t_range.1));
             let four = Frustum::new(&rays, signs);
-            for half in 0..2 {
-                let part = &boxes[(4 * half).min(boxes.len())..(4 * half + 4).min(boxes.len())];
-                let (near4, mask4) = four.intersect(&node_of::<4>(part), t_range.0, t_range.1);
-                prop_assert_eq!((mask >> (4 * half)) & 15, mask4);
-                for slot in 0..4 {
-                    if mask4 & (1 << slot) != 0 {
-                        prop_assert_eq!(near[4 * half + slot].to_bits(), near4[slot].to_bits());
-                    }
-                }
-            }
+            matches_halves(eight, &boxes, |node| four.intersect(node, t_range.0, t_range.1))?;
         }
 
         /// The eight-lane filter of a leaf of one to eight triangles finds the candidates the

@@ -260,64 +260,64 @@ fn occluded_in_leaf(packets: &[Packet], first: usize, mut lanes: u32, ray: &Shea
     false
 }
 
-/// The triangles' leaf test of one ray's closest-hit walk.
-struct ClosestLeaf<'a, F> {
+/// One ray's view of the triangles' leaves: their candidates for the ray, with the ray's watertight
+/// frame prepared at the first leaf it reaches (many rays reach none).
+struct RayLeaves<'a, F> {
     filter: F,
     packets: &'a [Packet],
     ray: &'a Ray,
-    /// Prepared at the first leaf: many rays reach none.
     sheared: Option<Option<ShearedRay>>,
+}
+
+impl<'a, F: Filter> RayLeaves<'a, F> {
+    fn new(filter: F, packets: &'a [Packet], ray: &'a Ray) -> Self {
+        Self { filter, packets, ray, sheared: None }
+    }
+
+    /// The leaf's first packet, its candidate lanes and the prepared ray; `None` for a ray without a
+    /// watertight frame (it hits no triangle).
+    #[inline(always)]
+    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
+        let (first, count) = leaf_range(leaf);
+        for _ in 0..count {
+            tally.tested();
+        }
+        let sheared = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)).as_ref()?;
+        Some((first, self.filter.leaf_candidates(self.packets, first, count, sheared), sheared))
+    }
+}
+
+/// The triangles' leaf test of one ray's closest-hit walk.
+struct ClosestLeaf<'a, F> {
+    leaves: RayLeaves<'a, F>,
     t_min: f32,
     /// The closest hit so far, its packet and lane.
     found: Option<(TriangleHit, u32, u32)>,
 }
 
-impl<'a, F> ClosestLeaf<'a, F> {
-    fn new(filter: F, packets: &'a [Packet], ray: &'a Ray, t_min: f32) -> Self {
-        Self { filter, packets, ray, sheared: None, t_min, found: None }
-    }
-}
-
 impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let (first, count) = leaf_range(leaf);
-        for _ in 0..count {
-            tally.tested();
-        }
-        let Some(sheared) = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)) else { return t_max };
-        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
-        closest_in_leaf(self.packets, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
+        let packets = self.leaves.packets;
+        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
+        closest_in_leaf(packets, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
     }
 }
 
 /// The triangles' leaf test of one ray's any-hit walk within `(0, t_max)`: ends the walk at the first
 /// hit.
 struct OccludedLeaf<'a, F> {
-    filter: F,
-    packets: &'a [Packet],
-    ray: &'a Ray,
-    sheared: Option<Option<ShearedRay>>,
+    leaves: RayLeaves<'a, F>,
     t_max: f32,
     hit: bool,
-}
-
-impl<'a, F> OccludedLeaf<'a, F> {
-    fn new(filter: F, packets: &'a [Packet], ray: &'a Ray, t_max: f32) -> Self {
-        Self { filter, packets, ray, sheared: None, t_max, hit: false }
-    }
 }
 
 impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let (first, count) = leaf_range(leaf);
-        for _ in 0..count {
-            tally.tested();
-        }
-        let Some(sheared) = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)) else { return t_max };
-        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
-        self.hit = occluded_in_leaf(self.packets, first, lanes, sheared, Interval::new(0.0, self.t_max));
+        let packets = self.leaves.packets;
+        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
+        self.hit = occluded_in_leaf(packets, first, lanes, sheared, Interval::new(0.0, self.t_max));
         if self.hit { f32::NEG_INFINITY } else { t_max }
     }
 }
@@ -466,13 +466,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             let (t_min, t_max) = (t_range.min, t_range.max);
             let found = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = ClosestLeaf::new(Portable, packets, ray, t_min);
+                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(Portable, packets, ray), t_min, found: None };
                     tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
                     leaf.found
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = ClosestLeaf::new(*simd, packets, ray, t_min);
+                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(*simd, packets, ray), t_min, found: None };
                     avx2::closest::<false, _, _>(*simd, tree, ray, (t_min, t_max), tally, &mut leaf);
                     leaf.found
                 }
@@ -498,13 +498,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(Triangles { tree, packets, .. }) = &self.triangles {
             let hit = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = OccludedLeaf::new(Portable, packets, ray, t_max);
+                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, packets, ray), t_max, hit: false };
                     tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
                     leaf.hit
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = OccludedLeaf::new(*simd, packets, ray, t_max);
+                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, packets, ray), t_max, hit: false };
                     avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
                     leaf.hit
                 }

@@ -109,14 +109,15 @@ impl Filter for Portable {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Interval, Ray};
     use raylume_intersect::watertight_decide;
 
     use super::*;
 
-    fn arb_point() -> impl Strategy<Value = Vec3A> {
+    /// Points with small integer coordinates (shared vertices, axis-parallel edges, exact zeros) or any.
+    pub fn arb_point() -> impl Strategy<Value = Vec3A> {
         // Small integers make shared vertices, axis-parallel edges and exact zeros common.
         prop_oneof![
             prop::array::uniform3(-3i8..=3).prop_map(|a| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32)),

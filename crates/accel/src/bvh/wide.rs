@@ -35,6 +35,21 @@ const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
 const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
 
 impl<const W: usize> WideNode<W> {
+    /// A node whose children are the given boxes (given by two opposite corners), slots past them
+    /// empty.
+    #[cfg(test)]
+    pub fn of_boxes(boxes: &[(Vec3A, Vec3A)]) -> Self {
+        let mut node = Self::EMPTY;
+        for (slot, (a, b)) in boxes.iter().enumerate() {
+            let (lo, hi) = (a.min(*b).to_array(), a.max(*b).to_array());
+            for axis in 0..3 {
+                node.bounds[2 * axis][slot] = lo[axis];
+                node.bounds[2 * axis + 1][slot] = hi[axis];
+            }
+        }
+        node
+    }
+
     pub const EMPTY: Self = Self {
         bounds: [
             [f32::INFINITY; W],
@@ -217,7 +232,16 @@ fn slabs(
     (near.to_array(), near.cmple(far).bitmask())
 }
 
-impl BoxRay {
+/// What a ray's box test needs per axis, before it is splatted across lanes: the origin, the
+/// reciprocal direction for the near and the far planes, and whether the direction is negative.
+pub(super) struct SlabRay {
+    pub origin: [f32; 3],
+    pub inv_near: [f32; 3],
+    pub inv_far: [f32; 3],
+    pub negative: [bool; 3],
+}
+
+impl SlabRay {
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
         // All three axes at once, without branches.
@@ -227,14 +251,25 @@ impl BoxRay {
         // `intersect` ignore.
         let parallel = d.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE));
         let (inv, inv_far) = reciprocals(d);
-        let inv_near = Vec3A::select(parallel, Vec3A::INFINITY, inv).to_array();
-        let inv_far = Vec3A::select(parallel, Vec3A::INFINITY, inv_far).to_array();
         let negative = (d.cmplt(Vec3A::ZERO) & !parallel).bitmask();
         Self {
-            origin: ray.origin.to_array().map(Vec4::splat),
-            inv_near: inv_near.map(Vec4::splat),
-            inv_far: inv_far.map(Vec4::splat),
+            origin: ray.origin.to_array(),
+            inv_near: Vec3A::select(parallel, Vec3A::INFINITY, inv).to_array(),
+            inv_far: Vec3A::select(parallel, Vec3A::INFINITY, inv_far).to_array(),
             negative: [negative & 1 != 0, negative & 2 != 0, negative & 4 != 0],
+        }
+    }
+}
+
+impl BoxRay {
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> Self {
+        let r = SlabRay::new(ray);
+        Self {
+            origin: r.origin.map(Vec4::splat),
+            inv_near: r.inv_near.map(Vec4::splat),
+            inv_far: r.inv_far.map(Vec4::splat),
+            negative: r.negative,
         }
     }
 }
@@ -522,19 +557,6 @@ mod tests {
         prop::array::uniform3(-range..range).prop_map(Vec3A::from_array)
     }
 
-    /// A node whose four children are the given boxes.
-    fn node_of(boxes: &[(Vec3A, Vec3A)]) -> WideNode<4> {
-        let mut node = WideNode::EMPTY;
-        for (slot, (a, b)) in boxes.iter().enumerate() {
-            let (lo, hi) = (a.min(*b).to_array(), a.max(*b).to_array());
-            for axis in 0..3 {
-                node.bounds[2 * axis][slot] = lo[axis];
-                node.bounds[2 * axis + 1][slot] = hi[axis];
-            }
-        }
-        node
-    }
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(5_000))]
         /// A packet's box test passes every child that one of its rays passes, whatever the spread
@@ -557,7 +579,7 @@ mod tests {
                     Ray::new(base + (*o - base) * spread, d)
                 })
                 .collect();
-            let node = node_of(&boxes);
+            let node = WideNode::<4>::of_boxes(&boxes);
             let (near, mask) = Frustum::new(&rays, signs).intersect(&node, t_range.0, t_range.1);
             for ray in &rays {
                 let (ray_near, ray_mask) = BoxRay::new(ray).intersect(&node, t_range.0, t_range.1);
