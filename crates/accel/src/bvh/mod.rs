@@ -1,7 +1,9 @@
 //! A bounding volume hierarchy: built binary with binned SAH (or the course's midpoint splits), then
-//! collapsed into nodes of four children whose boxes a ray tests together. Triangles live in their own
-//! tree, in packets of four laid out for the watertight test; other bounded shapes in a second tree;
-//! unbounded ones (planes) outside both.
+//! collapsed into wide nodes whose children's boxes a ray tests together: eight children in AVX
+//! registers on CPUs with AVX2 ([`BvhKernel::Avx2`]), four in SSE2 registers elsewhere
+//! ([`BvhKernel::Portable`]). Triangles live in their own tree, in packets of four laid out for the
+//! watertight test; other bounded shapes in a second (four-wide) tree; unbounded ones (planes) outside
+//! both.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -101,7 +103,8 @@ impl BvhKernel {
     }
 }
 
-/// A BVH over primitives.
+/// A BVH over primitives. Its triangles are walked by the fastest kernel the CPU runs
+/// ([`Bvh::kernel`]); every kernel gives the same answers.
 ///
 /// ```
 /// use raylume_accel::{Accelerator, Bvh};
