@@ -104,7 +104,7 @@ impl BvhKernel {
 }
 
 /// A BVH over primitives. Its triangles are walked by the fastest kernel the CPU runs
-/// ([`Bvh::kernel`]); every kernel gives the same answers.
+/// ([`Bvh::kernel`]); every kernel finds the same hits (ties between primitives at one distance aside).
 ///
 /// ```
 /// use raylume_accel::{Accelerator, Bvh};
