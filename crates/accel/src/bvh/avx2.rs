@@ -113,6 +113,41 @@ macro_rules! slabs8 {
     }};
 }
 
+/// [`NodeTest::order`] of eight children: the keys as the default method makes them, sorted by a
+/// bitonic network in one register.
+#[inline(always)]
+fn bitonic_order(simd: V3, near: [f32; 8], mask: u32) -> [u32; 8] {
+    let (avx, avx2) = (simd.avx, simd.avx2);
+    let bits: __m256i = pulp::cast(near);
+    // order_key: flip the sign bit of positive floats, every bit of negative ones.
+    let flip = avx2._mm256_or_si256(avx2._mm256_srai_epi32::<31>(bits), avx._mm256_set1_epi32(i32::MIN));
+    let slots = avx._mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    let key = avx2
+        ._mm256_or_si256(avx2._mm256_andnot_si256(avx._mm256_set1_epi32(7), avx2._mm256_xor_si256(bits, flip)), slots);
+    let lane_bit = avx2._mm256_sllv_epi32(avx._mm256_set1_epi32(1), slots);
+    let missed = avx2._mm256_cmpeq_epi32(
+        avx2._mm256_and_si256(avx._mm256_set1_epi32(mask as i32), lane_bit),
+        avx._mm256_setzero_si256(),
+    );
+    let mut k = avx2._mm256_or_si256(key, missed);
+    // Lane i of each layer keeps the smaller key of itself and lane i ^ j when the bit of i in the
+    // layer's constant is set (Batcher's bitonic sort, ascending).
+    macro_rules! layer {
+        ($partner:expr, $min_lanes:literal) => {{
+            let p = $partner;
+            let (lo, hi) = (avx2._mm256_min_epu32(k, p), avx2._mm256_max_epu32(k, p));
+            k = avx2._mm256_blend_epi32::<$min_lanes>(hi, lo);
+        }};
+    }
+    layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x99);
+    layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0xC3);
+    layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0xA5);
+    layer!(avx2._mm256_permute2x128_si256::<0x01>(k, k), 0x0F);
+    layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0x33);
+    layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x55);
+    pulp::cast(k)
+}
+
 impl NodeTest<8> for Frustum8 {
     /// [`Frustum`]'s test with the same operations, on eight children.
     #[inline(always)]
@@ -128,6 +163,11 @@ impl NodeTest<8> for Frustum8 {
                 avx._mm256_max_ps(avx._mm256_mul_ps(y, f0), avx._mm256_mul_ps(y, f1)),
             )
         })
+    }
+
+    #[inline(always)]
+    fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
+        bitonic_order(self.simd, near, mask)
     }
 }
 
@@ -236,40 +276,9 @@ impl NodeTest<8> for BoxRay8 {
         ))
     }
 
-    /// The keys as the default method makes them, sorted by a bitonic network in one register.
     #[inline(always)]
     fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
-        let (avx, avx2) = (self.simd.avx, self.simd.avx2);
-        let bits: __m256i = pulp::cast(near);
-        // order_key: flip the sign bit of positive floats, every bit of negative ones.
-        let flip = avx2._mm256_or_si256(avx2._mm256_srai_epi32::<31>(bits), avx._mm256_set1_epi32(i32::MIN));
-        let slots = avx._mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        let key = avx2._mm256_or_si256(
-            avx2._mm256_andnot_si256(avx._mm256_set1_epi32(7), avx2._mm256_xor_si256(bits, flip)),
-            slots,
-        );
-        let lane_bit = avx2._mm256_sllv_epi32(avx._mm256_set1_epi32(1), slots);
-        let missed = avx2._mm256_cmpeq_epi32(
-            avx2._mm256_and_si256(avx._mm256_set1_epi32(mask as i32), lane_bit),
-            avx._mm256_setzero_si256(),
-        );
-        let mut k = avx2._mm256_or_si256(key, missed);
-        // Lane i of each layer keeps the smaller key of itself and lane i ^ j when the bit of i in the
-        // layer's constant is set (Batcher's bitonic sort, ascending).
-        macro_rules! layer {
-            ($partner:expr, $min_lanes:literal) => {{
-                let p = $partner;
-                let (lo, hi) = (avx2._mm256_min_epu32(k, p), avx2._mm256_max_epu32(k, p));
-                k = avx2._mm256_blend_epi32::<$min_lanes>(hi, lo);
-            }};
-        }
-        layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x99);
-        layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0xC3);
-        layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0xA5);
-        layer!(avx2._mm256_permute2x128_si256::<0x01>(k, k), 0x0F);
-        layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0x33);
-        layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x55);
-        pulp::cast(k)
+        bitonic_order(self.simd, near, mask)
     }
 }
 

@@ -381,7 +381,7 @@ impl<const W: usize> WideTree<W> {
             cur = node.child[mask.trailing_zeros() as usize];
         };
         // Each level pushes at most W - 1 entries (and writes up to W - 1 past the top). One walk for
-        // every stack size, so that the leaf test has one call site (and is inlined).
+        // every stack size, so that the walk's code exists once per query.
         let need = (W - 1) * (self.depth + 1);
         let mut short = [(0u32, 0.0f32); 40];
         let (mut medium, mut long, mut huge);
@@ -394,6 +394,7 @@ impl<const W: usize> WideTree<W> {
             long = [(0u32, 0.0f32); STACK];
             &mut long
         } else {
+            // Deeper than the binary build makes trees: not reached, but no panic if it were.
             huge = vec![(0u32, 0.0f32); need];
             &mut huge
         };
