@@ -181,7 +181,11 @@ impl<P: Intersect + Clone> Bvh<P> {
             #[cfg(target_arch = "x86_64")]
             let simd = pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2);
             #[cfg(not(target_arch = "x86_64"))]
-            let simd: Option<()> = None;
+            let simd: Option<()> = {
+                // Only the portable kernel on this target.
+                let _ = kernel;
+                None
+            };
             // The SAH counts a leaf's cost in the blocks its filter tests at once: eight triangles in AVX
             // registers, else four.
             let block = if simd.is_some() { 2 * LANES } else { LANES };
