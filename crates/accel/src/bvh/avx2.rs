@@ -10,10 +10,8 @@ use raylume_geometry::Ray;
 use raylume_intersect::ShearedRay;
 use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ};
 
-use raylume_intersect::TriangleHit;
-
 use super::Triangles;
-use super::stream::Leaves;
+use super::stream::{Leaves, PacketQuery};
 use super::triangles::{Filter, LANES, Packet};
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, WideNode, WideTree};
 use crate::Tally;
@@ -171,39 +169,17 @@ impl NodeTest<8> for Frustum8 {
     }
 }
 
-/// The batch closest-hit walk of a packet of `rays` (signs `negative`) down the eight-wide tree,
-/// compiled with AVX2 enabled; as [`Leaves::closest`].
-#[allow(clippy::too_many_arguments)]
-pub(super) fn closest_packet(
+/// [`Leaves::answer`] for a packet of `rays` (signs `negative`) down the eight-wide tree, compiled
+/// with AVX2 enabled.
+pub(super) fn answer_packet(
     simd: V3,
     tree: &WideTree<8>,
     tris: &Triangles,
     rays: &[Ray],
     negative: [bool; 3],
-    t_min: f32,
-    t_max: &[f32],
-    found: &mut [Option<(TriangleHit, u32, u32)>],
+    query: PacketQuery,
 ) {
-    simd.vectorize(PacketWalk { simd, tree, tris, rays, negative, query: PacketQuery::Closest { t_min, t_max, found } })
-}
-
-/// The batch any-hit walk, as [`Leaves::occluded`], compiled with AVX2 enabled.
-pub(super) fn occluded_packet(
-    simd: V3,
-    tree: &WideTree<8>,
-    tris: &Triangles,
-    rays: &[Ray],
-    negative: [bool; 3],
-    t_max: &[f32],
-    occluded: &mut [bool],
-) {
-    simd.vectorize(PacketWalk { simd, tree, tris, rays, negative, query: PacketQuery::Occluded { t_max, occluded } })
-}
-
-/// A packet query's own arguments.
-enum PacketQuery<'a> {
-    Closest { t_min: f32, t_max: &'a [f32], found: &'a mut [Option<(TriangleHit, u32, u32)>] },
-    Occluded { t_max: &'a [f32], occluded: &'a mut [bool] },
+    simd.vectorize(PacketWalk { simd, tree, tris, rays, negative, query })
 }
 
 /// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
@@ -228,12 +204,7 @@ impl pulp::NullaryFnOnce for PacketWalk<'_> {
             packets: &self.tris.packets,
             leaf_bounds: &self.tris.leaf_bounds,
         };
-        match self.query {
-            PacketQuery::Closest { t_min, t_max, found } => {
-                leaves.closest(self.rays, self.negative, t_min, t_max, found)
-            }
-            PacketQuery::Occluded { t_max, occluded } => leaves.occluded(self.rays, self.negative, t_max, occluded),
-        }
+        leaves.answer(self.rays, self.negative, self.query)
     }
 }
 

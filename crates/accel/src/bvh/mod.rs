@@ -16,6 +16,7 @@ pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
+use stream::PacketQuery;
 use triangles::{Filter, LANES, Packet, Portable};
 use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
@@ -46,19 +47,22 @@ enum TriangleTree {
 }
 
 impl Triangles {
-    /// The four-wide tree and filter for a packet of `rays` with the directions' signs `negative`.
-    fn portable_leaves<'a>(
-        &'a self,
-        tree: &'a WideTree<4>,
-        rays: &[Ray],
-        negative: [bool; 3],
-    ) -> stream::Leaves<'a, 4, Frustum, Portable> {
-        stream::Leaves {
-            tree,
-            frustum: Frustum::new(rays, negative),
-            filter: Portable,
-            packets: &self.packets,
-            leaf_bounds: &self.leaf_bounds,
+    /// Answers `query` for a packet of `rays` with the directions' signs `negative`, with the tree's
+    /// kernel.
+    fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
+        match &self.tree {
+            TriangleTree::Portable(tree) => {
+                let leaves = stream::Leaves {
+                    tree,
+                    frustum: Frustum::new(rays, negative),
+                    filter: Portable,
+                    packets: &self.packets,
+                    leaf_bounds: &self.leaf_bounds,
+                };
+                leaves.answer(rays, negative, query)
+            }
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(simd, tree) => avx2::answer_packet(*simd, tree, self, rays, negative, query),
         }
     }
 
@@ -80,7 +84,7 @@ impl Triangles {
     }
 }
 
-/// The kernel a [`Bvh`] answers single-ray queries with over its triangles ([`Bvh::kernel`]).
+/// The kernel a [`Bvh`] answers queries with over its triangles ([`Bvh::kernel`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BvhKernel {
     /// Nodes of four children tested in 128-bit registers, leaves filtered four triangles at a time:
@@ -315,7 +319,6 @@ impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
 /// hit.
 struct OccludedLeaf<'a, F> {
     leaves: RayLeaves<'a, F>,
-    t_max: f32,
     hit: bool,
 }
 
@@ -324,7 +327,8 @@ impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
         let packets = self.leaves.packets;
         let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
-        self.hit = occluded_in_leaf(packets, first, lanes, sheared, Interval::new(0.0, self.t_max));
+        // An any-hit walk's range ends where the query's does until the first hit, which ends the walk.
+        self.hit = occluded_in_leaf(packets, first, lanes, sheared, Interval::new(0.0, t_max));
         if self.hit { f32::NEG_INFINITY } else { t_max }
     }
 }
@@ -416,15 +420,7 @@ impl<P: Intersect> Bvh<P> {
         }
         let mut found = [None; stream::PACKET];
         let (n, t_min) = (rays.len(), t_range.min);
-        match &tris.tree {
-            TriangleTree::Portable(tree) => {
-                tris.portable_leaves(tree, rays, negative).closest(rays, negative, t_min, &t_max[..n], &mut found[..n])
-            }
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(simd, tree) => {
-                avx2::closest_packet(*simd, tree, tris, rays, negative, t_min, &t_max[..n], &mut found[..n])
-            }
-        }
+        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
         let packets = &tris.packets;
         for (hit, found) in hits.iter_mut().zip(found) {
             if let Some((h, packet, lane)) = found {
@@ -444,14 +440,7 @@ impl<P: Intersect> Bvh<P> {
                 *end = f32::NEG_INFINITY;
             }
         }
-        let ends = &ends[..rays.len()];
-        match &tris.tree {
-            TriangleTree::Portable(tree) => {
-                tris.portable_leaves(tree, rays, negative).occluded(rays, negative, ends, occluded)
-            }
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(simd, tree) => avx2::occluded_packet(*simd, tree, tris, rays, negative, ends, occluded),
-        }
+        tris.answer_packet(rays, negative, PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded });
         if self.others.is_some() {
             for (ray, o) in rays.iter().zip(occluded) {
                 *o = *o || self.occluded_other(ray, t_max, &mut ());
@@ -505,13 +494,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(Triangles { tree, packets, .. }) = &self.triangles {
             let hit = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, packets, ray), t_max, hit: false };
+                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, packets, ray), hit: false };
                     tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
                     leaf.hit
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, packets, ray), t_max, hit: false };
+                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, packets, ray), hit: false };
                     avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
                     leaf.hit
                 }

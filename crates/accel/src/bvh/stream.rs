@@ -202,7 +202,30 @@ impl<F: Filter> RayTest for Occluded<'_, F> {
     }
 }
 
+/// A packet query over the triangles, with its own arguments: the closest hit of each ray within
+/// `[t_min, t_max[i]]` (kept in `found[i]` as [`closest_in_leaf`] keeps it), or whether each ray is
+/// occluded within `(0, t_max[i])` (sets `occluded[i]` for those that are).
+pub(super) enum PacketQuery<'a> {
+    Closest { t_min: f32, t_max: &'a [f32], found: &'a mut [Option<(TriangleHit, u32, u32)>] },
+    Occluded { t_max: &'a [f32], occluded: &'a mut [bool] },
+}
+
 impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
+    /// Answers `query` for the packet `rays` (signs `negative`, see [`common_signs`]).
+    #[inline(always)]
+    pub fn answer(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
+        match query {
+            PacketQuery::Closest { t_min, t_max, found } => {
+                let test = Closest { filter: self.filter, packets: self.packets, t_min, found };
+                self.walk::<false>(rays, negative, t_min, t_max, test);
+            }
+            PacketQuery::Occluded { t_max, occluded } => {
+                let test = Occluded { filter: self.filter, packets: self.packets, occluded };
+                self.walk::<true>(rays, negative, 0.0, t_max, test);
+            }
+        }
+    }
+
     /// Walks the packet `rays` (signs `negative`) down the tree; `test` tests each leaf for each ray
     /// that meets its box. With `ANY`, the walk stops once every ray is retired.
     #[inline(always)]
@@ -211,28 +234,5 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
         let start = state.t_max();
         let mut leaf = PacketLeaf { state, leaf_bounds: self.leaf_bounds, negative, t_min, test };
         self.tree.closest::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
-    }
-
-    /// The closest triangle hit of each ray of the packet `rays` (signs `negative`, see
-    /// [`common_signs`]) within `[t_min, t_max[i]]`, kept in `found[i]` as [`closest_in_leaf`] keeps it.
-    #[inline(always)]
-    pub fn closest(
-        &self,
-        rays: &[Ray],
-        negative: [bool; 3],
-        t_min: f32,
-        t_max: &[f32],
-        found: &mut [Option<(TriangleHit, u32, u32)>],
-    ) {
-        let test = Closest { filter: self.filter, packets: self.packets, t_min, found };
-        self.walk::<false>(rays, negative, t_min, t_max, test);
-    }
-
-    /// Whether each ray of the packet `rays` (signs `negative`) hits a triangle within `(0, t_max[i])`:
-    /// sets `occluded[i]` for those that do.
-    #[inline(always)]
-    pub fn occluded(&self, rays: &[Ray], negative: [bool; 3], t_max: &[f32], occluded: &mut [bool]) {
-        let test = Occluded { filter: self.filter, packets: self.packets, occluded };
-        self.walk::<true>(rays, negative, 0.0, t_max, test);
     }
 }
