@@ -1,6 +1,6 @@
 //! Where the time goes: the comparison's ray sets split into the rays that hit the mesh and those
 //! that miss it (both engines agree on which), each subset timed on both engines (best of seven
-//! passes, single-threaded), with raylume's nodes visited and triangles tested per ray. Camera rays
+//! passes, single-threaded), with raylume's nodes visited and triangles tested per ray (closest-hit and occlusion queries). Camera rays
 //! that miss are mostly per-ray set-up; rays that hit are mostly traversal and triangle tests.
 //!
 //! `cargo bench -p raylume-compare --bench hit_miss [-- MESH...]` (default: all three bunny meshes;
@@ -48,9 +48,9 @@ fn main() {
     }
     if once.is_none() {
         println!(
-            "| mesh | rays | subset | count | closest raylume/obvhs Mrays/s | ratio | occluded raylume/obvhs | ratio | visited | tested |"
+            "| mesh | rays | subset | count | closest raylume/obvhs Mrays/s | ratio | occluded raylume/obvhs | ratio | visited | tested | visited / tested (occluded) |"
         );
-        println!("|---|---|---|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|");
     }
     for mesh in meshes {
         let Some(w) = load_shared(&dir, &mesh, side) else { continue };
@@ -93,17 +93,20 @@ fn main() {
                 let theirs_closest = mrays(n, || orays.iter().filter(|r| theirs.closest(r).is_some()).count());
                 let ours_occluded = mrays(n, || set.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count());
                 let theirs_occluded = mrays(n, || orays.iter().filter(|r| theirs.occluded(r)).count());
-                let mut counts = Counts::default();
+                let (mut counts, mut any_counts) = (Counts::default(), Counts::default());
                 for r in set.iter() {
                     ours.closest_hit_tally(r, Interval::POSITIVE, &mut counts);
+                    ours.occluded_tally(r, f32::INFINITY, &mut any_counts);
                 }
                 let per_ray = |v: u64| v as f64 / n.max(1) as f64;
                 println!(
-                    "| {mesh} | {kind} | {subset} | {n} | {ours_closest:.2} / {theirs_closest:.2} | {:.2} | {ours_occluded:.2} / {theirs_occluded:.2} | {:.2} | {:.2} | {:.2} |",
+                    "| {mesh} | {kind} | {subset} | {n} | {ours_closest:.2} / {theirs_closest:.2} | {:.2} | {ours_occluded:.2} / {theirs_occluded:.2} | {:.2} | {:.2} | {:.2} | {:.2} / {:.2} |",
                     ours_closest / theirs_closest,
                     ours_occluded / theirs_occluded,
                     per_ray(counts.visited),
                     per_ray(counts.tested),
+                    per_ray(any_counts.visited),
+                    per_ray(any_counts.tested),
                 );
             }
         }

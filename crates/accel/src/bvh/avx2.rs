@@ -13,7 +13,7 @@ use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CM
 use super::Triangles;
 use super::stream::{Leaves, PacketQuery};
 use super::triangles::{Filter, LANES, Packet};
-use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, WideNode, WideTree};
+use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree};
 use crate::Tally;
 
 /// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
@@ -114,7 +114,7 @@ macro_rules! slabs8 {
 /// [`NodeTest::order`] of eight children: the keys as the default method makes them, sorted by a
 /// bitonic network in one register.
 #[inline(always)]
-fn bitonic_order(simd: V3, near: [f32; 8], mask: u32) -> [u32; 8] {
+fn bitonic_order(simd: V3, near: [f32; 8], mask: u32) -> __m256i {
     let (avx, avx2) = (simd.avx, simd.avx2);
     let bits: __m256i = pulp::cast(near);
     // order_key: flip the sign bit of positive floats, every bit of negative ones.
@@ -143,7 +143,81 @@ fn bitonic_order(simd: V3, near: [f32; 8], mask: u32) -> [u32; 8] {
     layer!(avx2._mm256_permute2x128_si256::<0x01>(k, k), 0x0F);
     layer!(avx2._mm256_shuffle_epi32::<0x4E>(k), 0x33);
     layer!(avx2._mm256_shuffle_epi32::<0xB1>(k), 0x55);
-    pulp::cast(k)
+    k
+}
+
+/// For each eight-bit mask, the slots of its set bits in increasing order, three bits each (lane `j`
+/// in bits `3 j..3 j + 3`), the rest zero.
+const COMPRESS: [u32; 256] = {
+    let mut t = [0u32; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut j, mut slot) = (0, 0);
+        while slot < 8 {
+            if m & (1 << slot) != 0 {
+                t[m] |= slot << (3 * j);
+                j += 1;
+            }
+            slot += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// [`NodeTest::push`] of eight children in AVX registers. Closest-hit walks push the hit children but
+/// the nearest farthest first, three or more of them ordered by the network and stored with one vector
+/// store per array; any-hit walks go on with the first hit child in slot order and push the others
+/// with one store per array, without a branch on their number.
+#[inline(always)]
+fn push8<const ANY: bool>(
+    simd: V3,
+    node: &WideNode<8>,
+    near: [f32; 8],
+    mask: u32,
+    stack: &mut Stack,
+    sp: &mut usize,
+) -> u32 {
+    let (avx, avx2) = (simd.avx, simd.avx2);
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    // Stores the children and distances of `slots` (lane j: the slot of entry sp + j) from sp.
+    let store = |slots: __m256i, stack: &mut Stack, sp: usize| {
+        let child: [u32; 8] = pulp::cast(avx2._mm256_permutevar8x32_epi32(pulp::cast(node.child), slots));
+        let near: [f32; 8] = pulp::cast(avx2._mm256_permutevar8x32_ps(pulp::cast(near), slots));
+        stack.child[sp..sp + 8].copy_from_slice(&child);
+        stack.near[sp..sp + 8].copy_from_slice(&near);
+    };
+    if ANY {
+        let shifts = avx._mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+        let packed = avx._mm256_set1_epi32(COMPRESS[rest as usize & 255] as i32);
+        let slots = avx2._mm256_and_si256(avx2._mm256_srlv_epi32(packed, shifts), avx._mm256_set1_epi32(7));
+        store(slots, stack, *sp);
+        *sp += rest.count_ones() as usize;
+        return node.child[first];
+    }
+    if rest == 0 {
+        return node.child[first];
+    }
+    let second = rest.trailing_zeros() as usize;
+    if rest & (rest - 1) == 0 {
+        // Two children, the most common case: order them without a branch.
+        let (a, b) = if near[second] < near[first] { (second, first) } else { (first, second) };
+        (stack.child[*sp], stack.near[*sp]) = (node.child[b], near[b]);
+        *sp += 1;
+        return node.child[a];
+    }
+    let keys = bitonic_order(simd, near, mask);
+    let n = mask.count_ones() as i32;
+    // Entry sp + j takes the (n - 1 - j)th nearest.
+    let from = avx2._mm256_sub_epi32(avx._mm256_set1_epi32(n - 1), avx._mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+    let seven = avx._mm256_set1_epi32(7);
+    let sorted = avx2._mm256_and_si256(keys, seven);
+    let slots = avx2._mm256_permutevar8x32_epi32(sorted, avx2._mm256_and_si256(from, seven));
+    store(slots, stack, *sp);
+    *sp += n as usize - 1;
+    let nearest: [u32; 8] = pulp::cast(sorted);
+    node.child[nearest[0] as usize]
 }
 
 impl NodeTest<8> for Frustum8 {
@@ -165,7 +239,19 @@ impl NodeTest<8> for Frustum8 {
 
     #[inline(always)]
     fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
-        bitonic_order(self.simd, near, mask)
+        pulp::cast(bitonic_order(self.simd, near, mask))
+    }
+
+    #[inline(always)]
+    fn push<const ANY: bool>(
+        &self,
+        node: &WideNode<8>,
+        near: [f32; 8],
+        mask: u32,
+        stack: &mut Stack,
+        sp: &mut usize,
+    ) -> u32 {
+        push8::<ANY>(self.simd, node, near, mask, stack, sp)
     }
 }
 
@@ -249,7 +335,19 @@ impl NodeTest<8> for BoxRay8 {
 
     #[inline(always)]
     fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
-        bitonic_order(self.simd, near, mask)
+        pulp::cast(bitonic_order(self.simd, near, mask))
+    }
+
+    #[inline(always)]
+    fn push<const ANY: bool>(
+        &self,
+        node: &WideNode<8>,
+        near: [f32; 8],
+        mask: u32,
+        stack: &mut Stack,
+        sp: &mut usize,
+    ) -> u32 {
+        push8::<ANY>(self.simd, node, near, mask, stack, sp)
     }
 }
 
@@ -428,6 +526,47 @@ mod tests {
             let expected = Portable.leaf_candidates(&packets, 0, tris.len(), &ray);
             let got = simd.vectorize(|| simd.leaf_candidates(&packets, 0, tris.len(), &ray));
             prop_assert_eq!(got, expected);
+        }
+
+        /// The vector push leaves the stack as the scalar one does in closest-hit walks (the nearest
+        /// child returned, the others farthest first, equal distances and signed zeros included), and
+        /// in any-hit walks returns the first hit child and pushes each other one once, with its
+        /// distance; entries below the top are kept.
+        #[test]
+        fn vector_push_is_the_scalar_push(
+            near in prop::array::uniform8(arb_distance()),
+            mask in 1u32..256,
+            below in 0usize..6,
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let ray = BoxRay8::new(simd, &Ray::new(Vec3A::ZERO, Vec3A::ONE));
+            let mut node = WideNode::<8>::EMPTY;
+            node.child = std::array::from_fn(|i| 100 + i as u32);
+            let fresh = || ([7u32; 24], [-1.0f32; 24]);
+            let run = |any: bool, scalar: bool| {
+                let (mut child, mut dist) = fresh();
+                let mut stack = Stack { child: &mut child, near: &mut dist };
+                let mut sp = below;
+                let go = match (any, scalar) {
+                    (false, false) => simd.vectorize(|| ray.push::<false>(&node, near, mask, &mut stack, &mut sp)),
+                    (true, false) => simd.vectorize(|| ray.push::<true>(&node, near, mask, &mut stack, &mut sp)),
+                    (_, true) => Scalar.push::<false>(&node, near, mask, &mut stack, &mut sp),
+                };
+                (go, sp, child[..sp].to_vec(), dist[..sp].iter().map(|d| d.to_bits()).collect::<Vec<_>>())
+            };
+            prop_assert_eq!(run(false, false), run(false, true));
+            let (go, sp, child, dist) = run(true, false);
+            prop_assert_eq!(go, 100 + mask.trailing_zeros());
+            prop_assert_eq!(sp, below + mask.count_ones() as usize - 1);
+            prop_assert!(child[..below].iter().all(|&c| c == 7) && dist[..below].iter().all(|&d| d == (-1.0f32).to_bits()));
+            let mut pushed: Vec<u32> = child[below..].to_vec();
+            for (c, d) in pushed.iter().zip(&dist[below..]) {
+                prop_assert_eq!(*d, near[(*c - 100) as usize].to_bits());
+            }
+            pushed.push(go);
+            pushed.sort_unstable();
+            let expected: Vec<u32> = (0..8).filter(|i| mask & (1 << i) != 0).map(|i| 100 + i).collect();
+            prop_assert_eq!(pushed, expected);
         }
 
         /// The network sorts the children's keys as the scalar ordering does: equal distances and

@@ -96,6 +96,33 @@ pub(super) struct BoxRay {
 pub(super) trait NodeTest<const W: usize> {
     fn intersect(&self, node: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
+    /// Pushes the children of `node` in `mask` (not empty) but one onto `stack` from `sp`, and returns
+    /// the one to go on with: the nearest, the others pushed farthest first. With `ANY`, the first in
+    /// slot order, the others pushed unsorted: any hit ends the walk, and ordering them cost more than
+    /// it saved (docs/PERFORMANCE.md). May write up to `W - 1` entries past the new top.
+    #[inline(always)]
+    fn push<const ANY: bool>(
+        &self,
+        node: &WideNode<W>,
+        near: [f32; W],
+        mask: u32,
+        stack: &mut Stack,
+        sp: &mut usize,
+    ) -> u32 {
+        if ANY {
+            let first = mask.trailing_zeros() as usize;
+            let mut rest = mask & (mask - 1);
+            while rest != 0 {
+                let slot = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                (stack.child[*sp], stack.near[*sp]) = (node.child[slot], near[slot]);
+                *sp += 1;
+            }
+            return node.child[first];
+        }
+        push_children(self, node, near, mask, stack, sp)
+    }
+
     /// The sort keys of the children in `mask` by increasing entry distance `near`, each key
     /// carrying its child's slot in its low bits; those not in `mask` follow.
     #[inline(always)]
@@ -299,6 +326,13 @@ impl<T, F: FnMut(u32, f32, &mut T) -> f32> LeafTest<T> for F {
     }
 }
 
+/// The traversal stack: the children still to visit and their entry distances, in two arrays so that
+/// a node's children can be pushed with one vector store each.
+pub(super) struct Stack<'a> {
+    pub child: &'a mut [u32],
+    pub near: &'a mut [f32],
+}
+
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
 #[inline(always)]
 pub(super) fn order_key(f: f32) -> u32 {
@@ -383,30 +417,30 @@ impl<const W: usize> WideTree<W> {
         // Each level pushes at most W - 1 entries (and writes up to W - 1 past the top). One walk for
         // every stack size, so that the walk's code exists once per query.
         let need = (W - 1) * (self.depth + 1);
-        let mut short = [(0u32, 0.0f32); 40];
+        let (mut short_child, mut short_near) = ([0u32; 40], [0.0f32; 40]);
         let (mut medium, mut long, mut huge);
-        let stack: &mut [(u32, f32)] = if need <= 40 {
-            &mut short
+        let mut stack = if need <= 40 {
+            Stack { child: &mut short_child, near: &mut short_near }
         } else if need <= 64 {
-            medium = [(0u32, 0.0f32); 64];
-            &mut medium
+            medium = ([0u32; 64], [0.0f32; 64]);
+            Stack { child: &mut medium.0, near: &mut medium.1 }
         } else if need <= STACK {
-            long = [(0u32, 0.0f32); STACK];
-            &mut long
+            long = ([0u32; STACK], [0.0f32; STACK]);
+            Stack { child: &mut long.0, near: &mut long.1 }
         } else {
             // Deeper than the binary build makes trees: not reached, but no panic if it were.
-            huge = vec![(0u32, 0.0f32); need];
-            &mut huge
+            huge = (vec![0u32; need], vec![0.0f32; need]);
+            Stack { child: &mut huge.0, near: &mut huge.1 }
         };
         let mut sp = 0;
-        cur = push_children::<ANY, W>(ray, &self.nodes[cur as usize], near, mask, stack, &mut sp);
+        cur = ray.push::<ANY>(&self.nodes[cur as usize], near, mask, &mut stack, &mut sp);
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
                 tally.visited();
                 let (near, mask) = ray.intersect(node, t_min, t_max);
                 if mask != 0 {
-                    cur = push_children::<ANY, W>(ray, node, near, mask, stack, &mut sp);
+                    cur = ray.push::<ANY>(node, near, mask, &mut stack, &mut sp);
                     continue;
                 }
             } else {
@@ -421,9 +455,8 @@ impl<const W: usize> WideTree<W> {
                     return;
                 }
                 sp -= 1;
-                let (c, d) = stack[sp];
-                if d <= t_max {
-                    cur = c;
+                if stack.near[sp] <= t_max {
+                    cur = stack.child[sp];
                     break;
                 }
             }
@@ -453,15 +486,14 @@ impl<const W: usize> WideTree<W> {
     }
 }
 
-/// Pushes the children of `node` in `mask` (not empty) but the nearest onto the stack, farthest
-/// first, and returns the nearest.
+/// [`NodeTest::push`] by scalar code: the children in `mask` but the nearest pushed farthest first.
 #[inline(always)]
-fn push_children<const ANY: bool, const W: usize>(
-    ray: &impl NodeTest<W>,
+fn push_children<const W: usize>(
+    ray: &(impl NodeTest<W> + ?Sized),
     node: &WideNode<W>,
     near: [f32; W],
     mut mask: u32,
-    stack: &mut [(u32, f32)],
+    stack: &mut Stack,
     sp: &mut usize,
 ) -> u32 {
     let first = mask.trailing_zeros() as usize;
@@ -469,26 +501,12 @@ fn push_children<const ANY: bool, const W: usize>(
     if mask == 0 {
         return node.child[first];
     }
-    if ANY && W == 8 {
-        // An any-hit walk of eight-wide nodes goes on with the nearest child and pushes the others
-        // unsorted: any hit ends it, so the order of the rest matters less than the sort costs.
-        let mut nearest = first;
-        while mask != 0 {
-            let slot = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let (go, push) = if near[slot] < near[nearest] { (slot, nearest) } else { (nearest, slot) };
-            nearest = go;
-            stack[*sp] = (node.child[push], near[push]);
-            *sp += 1;
-        }
-        return node.child[nearest];
-    }
     let second = mask.trailing_zeros() as usize;
     mask &= mask - 1;
     if mask == 0 {
         // Two children, the most common case: order them without a branch.
         let (a, b) = if near[second] < near[first] { (second, first) } else { (first, second) };
-        stack[*sp] = (node.child[b], near[b]);
+        (stack.child[*sp], stack.near[*sp]) = (node.child[b], near[b]);
         *sp += 1;
         return node.child[a];
     }
@@ -502,7 +520,7 @@ fn push_children<const ANY: bool, const W: usize>(
     let n = if W == 4 { HIT_COUNT[mask as usize & 15] as usize } else { mask.count_ones() as usize };
     for j in 0..W - 1 {
         let slot = (k[(n + W - 1 - j) % W] & slot_mask) as usize;
-        stack[*sp + j] = (node.child[slot], near[slot]);
+        (stack.child[*sp + j], stack.near[*sp + j]) = (node.child[slot], near[slot]);
     }
     *sp += n - 1;
     node.child[(k[0] & slot_mask) as usize]
