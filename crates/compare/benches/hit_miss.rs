@@ -1,7 +1,8 @@
 //! Where the time goes: the comparison's ray sets split into the rays that hit the mesh and those
 //! that miss it (both engines agree on which), each subset timed on both engines (best of seven
-//! passes, single-threaded), with raylume's nodes visited and triangles tested per ray (closest-hit and occlusion queries). Camera rays
-//! that miss are mostly per-ray set-up; rays that hit are mostly traversal and triangle tests.
+//! passes, single-threaded), with raylume's nodes visited and triangles tested per ray by its
+//! closest-hit and its occlusion queries. Camera rays that miss are mostly per-ray set-up; rays that
+//! hit are mostly traversal and triangle tests.
 //!
 //! `cargo bench -p raylume-compare --bench hit_miss [-- MESH...]` (default: all three bunny meshes;
 //! `RAYLUME_COMPARE_SIDE` sets the view's side, 512 by default).
