@@ -3,12 +3,18 @@
 //! on the shared bunny meshes, single-threaded. After the measurements it prints the table of medians
 //! and ratios that docs/PERFORMANCE.md carries, and the memory and agreement figures.
 //!
+//! On a shared machine the load moves between one engine's benchmark and the other's, which the
+//! ratio of two criterion medians takes in. So the bench also times the single-ray queries in
+//! alternating passes (raylume, obvhs, Embree, raylume, ...: each pass all rays of a set once) and
+//! prints the engines' median passes as a second, paired table.
+//!
 //! `cargo bench -p raylume-compare` (all meshes; a criterion filter such as `-- bunny/` picks some).
-//! `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets for a quick look.
+//! `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets for a quick look;
+//! `RAYLUME_COMPARE_PAIRED=0` leaves out the paired passes.
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, SystemTime};
+use std::time::{Duration, Instant, SystemTime};
 
 mod common;
 
@@ -52,6 +58,33 @@ struct Note {
     raylume_bytes: usize,
     obvhs_bytes: usize,
     agreement: [String; 2],
+    /// Query, ray kind and each engine's Mrays/s (raylume, obvhs, Embree if measured) from the
+    /// paired passes.
+    paired: Vec<(&'static str, &'static str, [Option<f64>; 3])>,
+}
+
+/// Passes per engine in the paired measurement.
+const PAIRED_PASSES: usize = 7;
+
+/// Each engine's Mrays/s over `n` rays from alternating passes (the median pass of each); `None`
+/// for an engine not given.
+fn paired(n: usize, mut engines: [Option<Box<dyn FnMut() -> usize + '_>>; 3]) -> [Option<f64>; 3] {
+    let mut times: [Vec<f64>; 3] = Default::default();
+    for _ in 0..PAIRED_PASSES {
+        for (engine, times) in engines.iter_mut().zip(&mut times) {
+            if let Some(pass) = engine {
+                let start = Instant::now();
+                black_box(pass());
+                times.push(start.elapsed().as_secs_f64());
+            }
+        }
+    }
+    times.map(|mut t| {
+        (!t.is_empty()).then(|| {
+            t.sort_by(f64::total_cmp);
+            n as f64 / t[t.len() / 2] / 1e6
+        })
+    })
 }
 
 fn measure(c: &mut Criterion, w: &Workload) -> Note {
@@ -73,6 +106,7 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
     #[cfg(feature = "embree")]
     let embree = common::Embree::build(&w.triangles);
     let mut agreement = [String::new(), String::new()];
+    let mut paired_rows = Vec::new();
     for (k, (kind, rays)) in [("camera", &w.camera), ("random", &w.random)].into_iter().enumerate() {
         // The same rays through raylume's batch queries, the camera's in tiles of 8x8 (obvhs has no
         // batch query: its rows take the rays one by one, in the same order).
@@ -152,6 +186,35 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
             b.iter(|| rays.iter().filter(|r| embree.occluded(r)).count())
         });
         group.finish();
+        if std::env::var("RAYLUME_COMPARE_PAIRED").as_deref() != Ok("0") {
+            // One pass per engine over all rays (dynamic dispatch per pass, not per ray).
+            type Pass<'a> = Option<Box<dyn FnMut() -> usize + 'a>>;
+            let embree_pass = |closest: bool| -> Pass {
+                #[cfg(feature = "embree")]
+                return Some(if closest {
+                    Box::new(|| rays.iter().filter(|r| embree.closest(r).is_some()).count())
+                } else {
+                    Box::new(|| rays.iter().filter(|r| embree.occluded(r)).count())
+                });
+                #[cfg(not(feature = "embree"))]
+                {
+                    let _ = closest;
+                    None
+                }
+            };
+            let closest: [Pass; 3] = [
+                Some(Box::new(|| rays.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count())),
+                Some(Box::new(|| orays.iter().filter(|r| theirs.closest(r).is_some()).count())),
+                embree_pass(true),
+            ];
+            paired_rows.push(("closest", kind, paired(rays.len(), closest)));
+            let occluded: [Pass; 3] = [
+                Some(Box::new(|| rays.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count())),
+                Some(Box::new(|| orays.iter().filter(|r| theirs.occluded(r)).count())),
+                embree_pass(false),
+            ];
+            paired_rows.push(("occluded", kind, paired(rays.len(), occluded)));
+        }
     }
     Note {
         mesh: w.name.clone(),
@@ -160,6 +223,7 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         raylume_bytes: ours.stats().bytes,
         obvhs_bytes: theirs.bytes(),
         agreement,
+        paired: paired_rows,
     }
 }
 
@@ -225,6 +289,20 @@ fn print_table(notes: &[Note], since: SystemTime) {
                     println!("| {} | {query} | {kind} | {a:.2} | {b:.2} | {:.2} | {embree} |", n.mesh, a / b);
                 }
             }
+        }
+    }
+    if notes.iter().any(|n| !n.paired.is_empty()) {
+        println!(
+            "\nPaired: median of {PAIRED_PASSES} alternating passes per engine (single-ray queries, one thread).\n"
+        );
+        println!("| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio | Embree Mrays/s | raylume/Embree |");
+        println!("|---|---|---|---|---|---|---|---|");
+    }
+    for n in notes {
+        for (query, kind, [ours, theirs, embree]) in &n.paired {
+            let (Some(a), Some(b)) = (ours, theirs) else { continue };
+            let embree = embree.map_or("- | -".to_owned(), |e| format!("{e:.2} | {:.2}", a / e));
+            println!("| {} | {query} | {kind} | {a:.2} | {b:.2} | {:.2} | {embree} |", n.mesh, a / b);
         }
     }
     println!("\n| mesh | triangles | raylume build ms | obvhs build ms | ratio | raylume B/tri | obvhs B/tri |");
