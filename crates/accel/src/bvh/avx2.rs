@@ -181,18 +181,22 @@ fn push8<const ANY: bool>(
     let (avx, avx2) = (simd.avx, simd.avx2);
     let first = mask.trailing_zeros() as usize;
     let rest = mask & (mask - 1);
-    // Stores the children and distances of `slots` (lane j: the slot of entry sp + j) from sp.
-    let store = |slots: __m256i, stack: &mut Stack, sp: usize| {
-        let child: [u32; 8] = pulp::cast(avx2._mm256_permutevar8x32_epi32(pulp::cast(node.child), slots));
-        let near: [f32; 8] = pulp::cast(avx2._mm256_permutevar8x32_ps(pulp::cast(near), slots));
-        stack.child[sp..sp + 8].copy_from_slice(&child);
-        stack.near[sp..sp + 8].copy_from_slice(&near);
-    };
+    // Stores the children and distances of `slots` (lane j: the slot of entry sp + j) from sp; a macro,
+    // not a closure (see `Walk`).
+    macro_rules! store {
+        ($slots:expr) => {{
+            let slots: __m256i = $slots;
+            let child: [u32; 8] = pulp::cast(avx2._mm256_permutevar8x32_epi32(pulp::cast(node.child), slots));
+            let near: [f32; 8] = pulp::cast(avx2._mm256_permutevar8x32_ps(pulp::cast(near), slots));
+            stack.child[*sp..*sp + 8].copy_from_slice(&child);
+            stack.near[*sp..*sp + 8].copy_from_slice(&near);
+        }};
+    }
     if ANY {
         let shifts = avx._mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
         let packed = avx._mm256_set1_epi32(COMPRESS[rest as usize & 255] as i32);
         let slots = avx2._mm256_and_si256(avx2._mm256_srlv_epi32(packed, shifts), avx._mm256_set1_epi32(7));
-        store(slots, stack, *sp);
+        store!(slots);
         *sp += rest.count_ones() as usize;
         return node.child[first];
     }
@@ -214,10 +218,33 @@ fn push8<const ANY: bool>(
     let seven = avx._mm256_set1_epi32(7);
     let sorted = avx2._mm256_and_si256(keys, seven);
     let slots = avx2._mm256_permutevar8x32_epi32(sorted, avx2._mm256_and_si256(from, seven));
-    store(slots, stack, *sp);
+    store!(slots);
     *sp += n as usize - 1;
     let nearest: [u32; 8] = pulp::cast(sorted);
     node.child[nearest[0] as usize]
+}
+
+/// The children's order and push of the eight-wide box tests (`Frustum8`, `BoxRay8`), in AVX
+/// registers: the network and [`push8`].
+macro_rules! eight_wide_pushes {
+    () => {
+        #[inline(always)]
+        fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
+            pulp::cast(bitonic_order(self.simd, near, mask))
+        }
+
+        #[inline(always)]
+        fn push<const ANY: bool>(
+            &self,
+            node: &WideNode<8>,
+            near: [f32; 8],
+            mask: u32,
+            stack: &mut Stack,
+            sp: &mut usize,
+        ) -> u32 {
+            push8::<ANY>(self.simd, node, near, mask, stack, sp)
+        }
+    };
 }
 
 impl NodeTest<8> for Frustum8 {
@@ -237,22 +264,7 @@ impl NodeTest<8> for Frustum8 {
         })
     }
 
-    #[inline(always)]
-    fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
-        pulp::cast(bitonic_order(self.simd, near, mask))
-    }
-
-    #[inline(always)]
-    fn push<const ANY: bool>(
-        &self,
-        node: &WideNode<8>,
-        near: [f32; 8],
-        mask: u32,
-        stack: &mut Stack,
-        sp: &mut usize,
-    ) -> u32 {
-        push8::<ANY>(self.simd, node, near, mask, stack, sp)
-    }
+    eight_wide_pushes!();
 }
 
 /// [`Leaves::answer`] for a packet of `rays` (signs `negative`) down the eight-wide tree, compiled
@@ -333,22 +345,7 @@ impl NodeTest<8> for BoxRay8 {
         ))
     }
 
-    #[inline(always)]
-    fn order(&self, near: [f32; 8], mask: u32) -> [u32; 8] {
-        pulp::cast(bitonic_order(self.simd, near, mask))
-    }
-
-    #[inline(always)]
-    fn push<const ANY: bool>(
-        &self,
-        node: &WideNode<8>,
-        near: [f32; 8],
-        mask: u32,
-        stack: &mut Stack,
-        sp: &mut usize,
-    ) -> u32 {
-        push8::<ANY>(self.simd, node, near, mask, stack, sp)
-    }
+    eight_wide_pushes!();
 }
 
 impl Filter for V3 {
