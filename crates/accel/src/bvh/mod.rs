@@ -454,7 +454,12 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if !ray.is_valid() {
             return None;
         }
-        let mut best = self.closest_other(ray, t_range, tally);
+        // Meshes have no other shapes: no hit to carry over then.
+        let mut best = if self.others.is_some() || !self.unbounded.is_empty() {
+            self.closest_other(ray, t_range, tally)
+        } else {
+            None
+        };
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
