@@ -12,7 +12,7 @@ use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CM
 
 use super::Triangles;
 use super::stream::{Leaves, PacketQuery};
-use super::triangles::{Filter, LANES, Packet};
+use super::triangles::{Filter, Leaf};
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree};
 use crate::Tally;
 
@@ -299,7 +299,7 @@ impl pulp::NullaryFnOnce for PacketWalk<'_> {
             tree: self.tree,
             frustum: Frustum8::new(self.simd, self.rays, self.negative),
             filter: self.simd,
-            packets: &self.tris.packets,
+            leaves: &self.tris.leaves,
             leaf_bounds: &self.tris.leaf_bounds,
         };
         leaves.answer(self.rays, self.negative, self.query)
@@ -352,11 +352,11 @@ impl Filter for V3 {
     /// [`Portable`](super::triangles::Portable)'s filter with the very operations of [`candidates`](super::triangles::candidates),
     /// on both packets of a leaf at once.
     #[inline(always)]
-    fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
-        // A leaf of one packet tests it twice (its upper lanes are masked off below): no branch on the
-        // leaf's size. No closures here: each must be inlined for its intrinsics to be (see `Walk`).
+    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
+        // Both packets, the second empty in a leaf of four or fewer (its lanes are masked off below): no
+        // branch on the leaf's size. No closures here: each must be inlined for its intrinsics to be (see `Walk`).
         let avx = self.avx;
-        let (p, q) = (&packets[first], &packets[first + (count > LANES) as usize]);
+        let [p, q] = &leaf.packets;
         let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
         let (sx, sy) = (avx._mm256_set1_ps(ray.shear[0]), avx._mm256_set1_ps(ray.shear[1]));
         let o = ray.origin.to_array();
@@ -519,9 +519,9 @@ mod tests {
             prop_assume!(target != o);
             let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
             let tris: Vec<_> = verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), i as u32)).collect();
-            let packets: Vec<Packet> = tris.chunks(LANES).map(|c| Packet::new(c.iter().copied())).collect();
-            let expected = Portable.leaf_candidates(&packets, 0, tris.len(), &ray);
-            let got = simd.vectorize(|| simd.leaf_candidates(&packets, 0, tris.len(), &ray));
+            let leaf = Leaf::new(&tris);
+            let expected = Portable.leaf_candidates(&leaf, tris.len(), &ray);
+            let got = simd.vectorize(|| simd.leaf_candidates(&leaf, tris.len(), &ray));
             prop_assert_eq!(got, expected);
         }
 

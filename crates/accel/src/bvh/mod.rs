@@ -17,7 +17,7 @@ use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
 use stream::PacketQuery;
-use triangles::{Filter, LANES, Packet, Portable};
+use triangles::{Filter, LANES, Leaf, Portable};
 use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
@@ -27,12 +27,12 @@ const MAX_LEAF: usize = 4;
 /// Largest leaf of triangles: two packets.
 const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 
-/// The triangles' tree: its nodes, the triangles in packets (in leaf order) and each leaf's box, kept
-/// at the leaf's first packet (the packet walk tests it for four rays at a time).
+/// The triangles' tree: its nodes, each leaf's triangles and each leaf's box (the packet walk tests
+/// it for four rays at a time).
 #[derive(Clone, Debug)]
 struct Triangles {
     tree: TriangleTree,
-    packets: Vec<Packet>,
+    leaves: Vec<Leaf>,
     leaf_bounds: Vec<[f32; 6]>,
 }
 
@@ -56,7 +56,7 @@ impl Triangles {
                     tree,
                     frustum: Frustum::new(rays, negative),
                     filter: Portable,
-                    packets: &self.packets,
+                    leaves: &self.leaves,
                     leaf_bounds: &self.leaf_bounds,
                 };
                 leaves.answer(rays, negative, query)
@@ -194,25 +194,21 @@ impl<P: Intersect + Clone> Bvh<P> {
             // registers, else four.
             let block = if simd.is_some() { 2 * LANES } else { LANES };
             let bin = build_binary(&mut tri_items, method, block, MAX_TRIANGLE_LEAF);
-            let mut packets = Vec::with_capacity(tri_items.len().div_ceil(2));
-            let mut leaf_bounds = Vec::with_capacity(packets.capacity());
+            let mut leaves = Vec::with_capacity(tri_items.len().div_ceil(MAX_TRIANGLE_LEAF));
+            let mut leaf_bounds = Vec::with_capacity(leaves.capacity());
             let leaf = |first: usize, count: usize, bounds: Aabb| {
-                let start = packets.len();
-                packets.extend(
-                    tri_items[first..first + count]
-                        .chunks(LANES)
-                        .map(|chunk| Packet::new(chunk.iter().map(|it| tris[it.index as usize]))),
-                );
+                let held: Vec<_> = tri_items[first..first + count].iter().map(|it| tris[it.index as usize]).collect();
+                leaves.push(Leaf::new(&held));
                 let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
-                leaf_bounds.resize(packets.len(), [min[0], min[1], min[2], max[0], max[1], max[2]]);
-                leaf_ref(start, count)
+                leaf_bounds.push([min[0], min[1], min[2], max[0], max[1], max[2]]);
+                leaf_ref(leaves.len() - 1, count)
             };
             let tree = match simd {
                 #[cfg(target_arch = "x86_64")]
                 Some(simd) => TriangleTree::Avx2(simd, WideTree::collapse(&bin, leaf)),
                 _ => TriangleTree::Portable(WideTree::collapse(&bin, leaf)),
             };
-            Triangles { tree, packets, leaf_bounds }
+            Triangles { tree, leaves, leaf_bounds }
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
@@ -230,41 +226,37 @@ impl<P: Intersect + Clone> Bvh<P> {
     }
 }
 
-/// The packet and lane of bit `bit` of [`Filter::leaf_candidates`]' mask.
-#[inline(always)]
-fn packet_lane(first: usize, bit: u32) -> (usize, u32) {
-    (first + bit as usize / LANES, bit % LANES as u32)
-}
-
-/// Tests the candidate `lanes` of the leaf whose packets start at `first` for the closest hit within
-/// `range`, keeping it in `found` (the hit, its packet and lane); returns the new end of the range.
+/// Tests the candidate `lanes` of leaf `first` for the closest hit within `range`, keeping it in
+/// `found` (the hit, its leaf and candidate bit); returns the new end of the range.
 #[inline(always)]
 fn closest_in_leaf(
-    packets: &[Packet],
+    leaves: &[Leaf],
     first: usize,
     mut lanes: u32,
     ray: &ShearedRay,
     mut range: Interval,
     found: &mut Option<(TriangleHit, u32, u32)>,
 ) -> f32 {
+    let leaf = &leaves[first];
     while lanes != 0 {
-        let (p, lane) = packet_lane(first, lanes.trailing_zeros());
+        let bit = lanes.trailing_zeros();
         lanes &= lanes - 1;
-        if let Some(h) = raylume_intersect::watertight_decide(&packets[p].triangle(lane), ray, range) {
+        if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
             range = range.with_max(h.t);
-            *found = Some((h, p as u32, lane));
+            *found = Some((h, first as u32, bit));
         }
     }
     range.max
 }
 
-/// Whether any triangle among the candidate `lanes` of the leaf is hit within `range`.
+/// Whether any triangle among the candidate `lanes` of leaf `first` is hit within `range`.
 #[inline(always)]
-fn occluded_in_leaf(packets: &[Packet], first: usize, mut lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
+fn occluded_in_leaf(leaves: &[Leaf], first: usize, mut lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
+    let leaf = &leaves[first];
     while lanes != 0 {
-        let (p, lane) = packet_lane(first, lanes.trailing_zeros());
+        let bit = lanes.trailing_zeros();
         lanes &= lanes - 1;
-        if raylume_intersect::watertight_hits(&packets[p].triangle(lane), ray, range) {
+        if raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range) {
             return true;
         }
     }
@@ -275,17 +267,17 @@ fn occluded_in_leaf(packets: &[Packet], first: usize, mut lanes: u32, ray: &Shea
 /// frame prepared at the first leaf it reaches (many rays reach none).
 struct RayLeaves<'a, F> {
     filter: F,
-    packets: &'a [Packet],
+    leaves: &'a [Leaf],
     ray: &'a Ray,
     sheared: Option<Option<ShearedRay>>,
 }
 
 impl<'a, F: Filter> RayLeaves<'a, F> {
-    fn new(filter: F, packets: &'a [Packet], ray: &'a Ray) -> Self {
-        Self { filter, packets, ray, sheared: None }
+    fn new(filter: F, leaves: &'a [Leaf], ray: &'a Ray) -> Self {
+        Self { filter, leaves, ray, sheared: None }
     }
 
-    /// The leaf's first packet, its candidate lanes and the prepared ray; `None` for a ray without a
+    /// The leaf's index, its candidate lanes and the prepared ray; `None` for a ray without a
     /// watertight frame (it hits no triangle).
     #[inline(always)]
     fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
@@ -294,7 +286,7 @@ impl<'a, F: Filter> RayLeaves<'a, F> {
             tally.tested();
         }
         let sheared = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)).as_ref()?;
-        Some((first, self.filter.leaf_candidates(self.packets, first, count, sheared), sheared))
+        Some((first, self.filter.leaf_candidates(&self.leaves[first], count, sheared), sheared))
     }
 }
 
@@ -302,16 +294,16 @@ impl<'a, F: Filter> RayLeaves<'a, F> {
 struct ClosestLeaf<'a, F> {
     leaves: RayLeaves<'a, F>,
     t_min: f32,
-    /// The closest hit so far, its packet and lane.
+    /// The closest hit so far, its leaf and candidate bit.
     found: Option<(TriangleHit, u32, u32)>,
 }
 
 impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let packets = self.leaves.packets;
+        let leaves = self.leaves.leaves;
         let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
-        closest_in_leaf(packets, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
+        closest_in_leaf(leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
     }
 }
 
@@ -325,10 +317,10 @@ struct OccludedLeaf<'a, F> {
 impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let packets = self.leaves.packets;
+        let leaves = self.leaves.leaves;
         let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
         // An any-hit walk's range ends where the query's does until the first hit, which ends the walk.
-        self.hit = occluded_in_leaf(packets, first, lanes, sheared, Interval::new(0.0, t_max));
+        self.hit = occluded_in_leaf(leaves, first, lanes, sheared, Interval::new(0.0, t_max));
         if self.hit { f32::NEG_INFINITY } else { t_max }
     }
 }
@@ -421,11 +413,10 @@ impl<P: Intersect> Bvh<P> {
         let mut found = [None; stream::PACKET];
         let (n, t_min) = (rays.len(), t_range.min);
         tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
-        let packets = &tris.packets;
         for (hit, found) in hits.iter_mut().zip(found) {
-            if let Some((h, packet, lane)) = found {
-                let packet = &packets[packet as usize];
-                *hit = Some(PrimitiveHit { hit: h.hit(&packet.triangle(lane)), primitive: packet.id(lane) });
+            if let Some((h, leaf, bit)) = found {
+                let leaf = &tris.leaves[leaf as usize];
+                *hit = Some(PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) });
             }
         }
     }
@@ -463,24 +454,24 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
+        if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
             let (t_min, t_max) = (t_range.min, t_range.max);
             let found = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(Portable, packets, ray), t_min, found: None };
+                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(Portable, leaves, ray), t_min, found: None };
                     tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
                     leaf.found
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(*simd, packets, ray), t_min, found: None };
+                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(*simd, leaves, ray), t_min, found: None };
                     avx2::closest::<false, _, _>(*simd, tree, ray, (t_min, t_max), tally, &mut leaf);
                     leaf.found
                 }
             };
-            if let Some((h, packet, lane)) = found {
-                let packet = &packets[packet as usize];
-                best = Some(PrimitiveHit { hit: h.hit(&packet.triangle(lane)), primitive: packet.id(lane) });
+            if let Some((h, leaf, bit)) = found {
+                let leaf = &leaves[leaf as usize];
+                best = Some(PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) });
             }
         }
         best
@@ -496,16 +487,16 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }) {
             return true;
         }
-        if let Some(Triangles { tree, packets, .. }) = &self.triangles {
+        if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
             let hit = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, packets, ray), hit: false };
+                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, leaves, ray), hit: false };
                     tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
                     leaf.hit
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, packets, ray), hit: false };
+                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, leaves, ray), hit: false };
                     avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
                     leaf.hit
                 }
@@ -548,10 +539,10 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn stats(&self) -> AccelStats {
         let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
         let mut primitives = self.unbounded.len();
-        if let Some(t @ Triangles { packets, leaf_bounds, .. }) = &self.triangles {
+        if let Some(t @ Triangles { leaves, leaf_bounds, .. }) = &self.triangles {
             bytes +=
-                t.nodes().1 + std::mem::size_of_val(packets.as_slice()) + std::mem::size_of_val(leaf_bounds.as_slice());
-            primitives += packets.iter().map(Packet::len).sum::<usize>();
+                t.nodes().1 + std::mem::size_of_val(leaves.as_slice()) + std::mem::size_of_val(leaf_bounds.as_slice());
+            primitives += leaves.iter().map(Leaf::len).sum::<usize>();
         }
         if let Some((tree, prims, ids)) = &self.others {
             bytes += tree.bytes() + std::mem::size_of_val(prims.as_slice()) + std::mem::size_of_val(ids.as_slice());

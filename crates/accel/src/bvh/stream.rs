@@ -7,7 +7,7 @@ use glam::Vec4;
 use raylume_geometry::{Interval, Ray, Vec3A};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
-use super::triangles::{Filter, Packet};
+use super::triangles::{Filter, Leaf};
 use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals};
 use super::{closest_in_leaf, occluded_in_leaf};
 
@@ -133,7 +133,7 @@ impl<'a> Rays<'a> {
 }
 
 /// What a packet walk does for each ray that meets a leaf's box: `test(i, first, count, sheared ray,
-/// t_max)` tests the leaf (first packet, triangle count) for ray `i` and returns the ray's new `t_max`
+/// t_max)` tests the leaf (its index, triangle count) for ray `i` and returns the ray's new `t_max`
 /// (`-inf` retires the ray). Types whose method is always inlined, as [`LeafTest`]'s.
 trait RayTest {
     fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
@@ -157,19 +157,19 @@ impl<R: RayTest> LeafTest<()> for PacketLeaf<'_, '_, R> {
 }
 
 /// The triangles a packet walks: the tree (of either width, with the packet's box test for it), the
-/// leaves' filter, the packets of triangles and each leaf's box.
+/// leaves' filter, the leaves' triangles and each leaf's box.
 pub(super) struct Leaves<'a, const W: usize, N, F> {
     pub tree: &'a WideTree<W>,
     pub frustum: N,
     pub filter: F,
-    pub packets: &'a [Packet],
+    pub leaves: &'a [Leaf],
     pub leaf_bounds: &'a [[f32; 6]],
 }
 
 /// Each ray's closest hit, kept as [`closest_in_leaf`] keeps it.
 struct Closest<'a, F> {
     filter: F,
-    packets: &'a [Packet],
+    leaves: &'a [Leaf],
     t_min: f32,
     found: &'a mut [Option<(TriangleHit, u32, u32)>],
 }
@@ -177,23 +177,23 @@ struct Closest<'a, F> {
 impl<F: Filter> RayTest for Closest<'_, F> {
     #[inline(always)]
     fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
-        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
-        closest_in_leaf(self.packets, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found[i])
+        let lanes = self.filter.leaf_candidates(&self.leaves[first], count, sheared);
+        closest_in_leaf(self.leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found[i])
     }
 }
 
 /// Whether each ray is occluded; an occluded ray retires.
 struct Occluded<'a, F> {
     filter: F,
-    packets: &'a [Packet],
+    leaves: &'a [Leaf],
     occluded: &'a mut [bool],
 }
 
 impl<F: Filter> RayTest for Occluded<'_, F> {
     #[inline(always)]
     fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
-        let lanes = self.filter.leaf_candidates(self.packets, first, count, sheared);
-        if occluded_in_leaf(self.packets, first, lanes, sheared, Interval::new(0.0, t_max)) {
+        let lanes = self.filter.leaf_candidates(&self.leaves[first], count, sheared);
+        if occluded_in_leaf(self.leaves, first, lanes, sheared, Interval::new(0.0, t_max)) {
             self.occluded[i] = true;
             f32::NEG_INFINITY
         } else {
@@ -216,11 +216,11 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
     pub fn answer(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
         match query {
             PacketQuery::Closest { t_min, t_max, found } => {
-                let test = Closest { filter: self.filter, packets: self.packets, t_min, found };
+                let test = Closest { filter: self.filter, leaves: self.leaves, t_min, found };
                 self.walk::<false>(rays, negative, t_min, t_max, test);
             }
             PacketQuery::Occluded { t_max, occluded } => {
-                let test = Occluded { filter: self.filter, packets: self.packets, occluded };
+                let test = Occluded { filter: self.filter, leaves: self.leaves, occluded };
                 self.walk::<true>(rays, negative, 0.0, t_max, test);
             }
         }

@@ -59,6 +59,42 @@ impl Packet {
     }
 }
 
+/// The triangles of one leaf: up to eight, in two packets (the second empty for four or fewer),
+/// aligned to a cache line so that a leaf spans five lines wherever the allocator puts them.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(super) struct Leaf {
+    pub packets: [Packet; 2],
+}
+
+const _: () = assert!(std::mem::size_of::<Leaf>() == 320);
+
+impl Leaf {
+    /// The leaf of `tris` (at most eight) with their ids.
+    pub fn new(tris: &[(Triangle, u32)]) -> Self {
+        debug_assert!(tris.len() <= 2 * LANES);
+        let half = tris.len().min(LANES);
+        Self { packets: [Packet::new(tris[..half].iter().copied()), Packet::new(tris[half..].iter().copied())] }
+    }
+
+    /// The triangle of candidate bit `bit` ([`Filter::leaf_candidates`]).
+    #[inline]
+    pub fn triangle(&self, bit: u32) -> Triangle {
+        self.packets[(bit as usize / LANES) & 1].triangle(bit % LANES as u32)
+    }
+
+    /// The input index of the triangle of candidate bit `bit`.
+    #[inline]
+    pub fn id(&self, bit: u32) -> u32 {
+        self.packets[(bit as usize / LANES) & 1].id(bit % LANES as u32)
+    }
+
+    /// Number of triangles held.
+    pub fn len(&self) -> usize {
+        self.packets.iter().map(Packet::len).sum()
+    }
+}
+
 /// The mask of the first `count` lanes that the watertight test may accept: it rejects a triangle
 /// when its three edge functions are non-zero and of mixed signs, and these are computed with the very
 /// operations of [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the
@@ -88,9 +124,8 @@ pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
 /// How a leaf's candidate triangles are found: four lanes at a time ([`Portable`]), or eight in AVX
 /// registers (`pulp::x86::V3`).
 pub(super) trait Filter: Copy {
-    /// The candidate lanes of a leaf of `count` triangles in packets from `first`: bit `4 j + l` for
-    /// lane `l` of packet `first + j`.
-    fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32;
+    /// The candidate triangles of a leaf holding `count`: bit `4 j + l` for lane `l` of packet `j`.
+    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32;
 }
 
 /// The filter of baseline x86-64 (and of every other target): one packet at a time.
@@ -99,10 +134,10 @@ pub(super) struct Portable;
 
 impl Filter for Portable {
     #[inline(always)]
-    fn leaf_candidates(self, packets: &[Packet], first: usize, count: usize, ray: &ShearedRay) -> u32 {
+    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
         let mut lanes = 0;
-        for j in 0..count.div_ceil(LANES) {
-            lanes |= candidates(&packets[first + j], ray, (count - j * LANES).min(LANES)) << (j * LANES);
+        for (j, packet) in leaf.packets.iter().enumerate().take(count.div_ceil(LANES)) {
+            lanes |= candidates(packet, ray, (count - j * LANES).min(LANES)) << (j * LANES);
         }
         lanes
     }
