@@ -232,12 +232,25 @@ impl<P: Intersect + Clone> Bvh<P> {
 fn closest_in_leaf(
     leaves: &[Leaf],
     first: usize,
+    lanes: u32,
+    ray: &ShearedRay,
+    range: Interval,
+    found: &mut Option<(TriangleHit, u32, u32)>,
+) -> f32 {
+    if lanes == 0 { range.max } else { closest_of_candidates(&leaves[first], first, lanes, ray, range, found) }
+}
+
+/// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
+/// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
+#[inline(never)]
+fn closest_of_candidates(
+    leaf: &Leaf,
+    first: usize,
     mut lanes: u32,
     ray: &ShearedRay,
     mut range: Interval,
     found: &mut Option<(TriangleHit, u32, u32)>,
 ) -> f32 {
-    let leaf = &leaves[first];
     while lanes != 0 {
         let bit = lanes.trailing_zeros();
         lanes &= lanes - 1;
@@ -251,8 +264,13 @@ fn closest_in_leaf(
 
 /// Whether any triangle among the candidate `lanes` of leaf `first` is hit within `range`.
 #[inline(always)]
-fn occluded_in_leaf(leaves: &[Leaf], first: usize, mut lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
-    let leaf = &leaves[first];
+fn occluded_in_leaf(leaves: &[Leaf], first: usize, lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
+    lanes != 0 && any_candidate_hit(&leaves[first], lanes, ray, range)
+}
+
+/// [`occluded_in_leaf`] of a leaf with candidates; not inlined, as [`closest_of_candidates`].
+#[inline(never)]
+fn any_candidate_hit(leaf: &Leaf, mut lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
     while lanes != 0 {
         let bit = lanes.trailing_zeros();
         lanes &= lanes - 1;
