@@ -519,7 +519,7 @@ mod tests {
             prop_assume!(target != o);
             let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
             let tris: Vec<_> = verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), i as u32)).collect();
-            let leaf = Leaf::new(&tris);
+            let leaf = Leaf::new(tris.iter().copied());
             let expected = Portable.leaf_candidates(&leaf, tris.len(), &ray);
             let got = simd.vectorize(|| simd.leaf_candidates(&leaf, tris.len(), &ray));
             prop_assert_eq!(got, expected);

@@ -197,8 +197,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let mut leaves = Vec::with_capacity(tri_items.len().div_ceil(MAX_TRIANGLE_LEAF));
             let mut leaf_bounds = Vec::with_capacity(leaves.capacity());
             let leaf = |first: usize, count: usize, bounds: Aabb| {
-                let held: Vec<_> = tri_items[first..first + count].iter().map(|it| tris[it.index as usize]).collect();
-                leaves.push(Leaf::new(&held));
+                leaves.push(Leaf::new(tri_items[first..first + count].iter().map(|it| tris[it.index as usize])));
                 let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
                 leaf_bounds.push([min[0], min[1], min[2], max[0], max[1], max[2]]);
                 leaf_ref(leaves.len() - 1, count)

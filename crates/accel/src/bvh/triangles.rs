@@ -71,10 +71,11 @@ const _: () = assert!(std::mem::size_of::<Leaf>() == 320);
 
 impl Leaf {
     /// The leaf of `tris` (at most eight) with their ids.
-    pub fn new(tris: &[(Triangle, u32)]) -> Self {
-        debug_assert!(tris.len() <= 2 * LANES);
-        let half = tris.len().min(LANES);
-        Self { packets: [Packet::new(tris[..half].iter().copied()), Packet::new(tris[half..].iter().copied())] }
+    pub fn new(tris: impl IntoIterator<Item = (Triangle, u32)>) -> Self {
+        let mut tris = tris.into_iter();
+        let packets = [Packet::new(tris.by_ref().take(LANES)), Packet::new(tris.by_ref().take(LANES))];
+        debug_assert!(tris.next().is_none(), "a leaf holds at most eight triangles");
+        Self { packets }
     }
 
     /// The triangle of candidate bit `bit` ([`Filter::leaf_candidates`]).
