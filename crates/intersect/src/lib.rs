@@ -17,7 +17,9 @@ mod watertight;
 pub use primitive::Primitive;
 use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec2, Vec3A};
 pub use shapes::intersect_moller_trumbore;
-pub use watertight::{ShearedRay, TriangleHit, intersect_watertight, watertight_decide, watertight_hits};
+pub use watertight::{
+    ShearedRay, TriangleHit, has_unit_normal, intersect_watertight, watertight_decide, watertight_hits,
+};
 
 /// Where a ray meets a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -182,6 +182,13 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     Some(TriangleHit { t, b: [u * inv, v * inv, w * inv], normal })
 }
 
+/// Whether the watertight test can hit `tri` at all: a triangle without a unit normal (zero area in
+/// f32, or a cross product that overflows) is never hit, so accelerators may leave it out.
+#[inline]
+pub fn has_unit_normal(tri: &Triangle) -> bool {
+    unit_normal(tri).is_some()
+}
+
 /// The triangle's unit normal; `None` for degenerate triangles.
 #[inline]
 fn unit_normal(tri: &Triangle) -> Option<Vec3A> {

@@ -6,13 +6,15 @@
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
 
 use pulp::x86::V3;
-use raylume_geometry::Ray;
+use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::ShearedRay;
-use std::arch::x86_64::{__m256, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ};
+use std::arch::x86_64::{
+    __m128, __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ,
+};
 
 use super::Triangles;
 use super::stream::{Leaves, PacketQuery};
-use super::triangles::{Filter, Leaf};
+use super::triangles::{Exact, Filter, Leaf};
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree};
 use crate::Tally;
 
@@ -348,53 +350,212 @@ impl NodeTest<8> for BoxRay8 {
     eight_wide_pushes!();
 }
 
+/// An exact test compiled with AVX2 enabled ([`Filter::exact`]).
+struct Compiled<E>(E);
+
+impl<E: Exact> pulp::NullaryFnOnce for Compiled<E> {
+    type Output = E::Output;
+
+    #[inline(always)]
+    fn call(self) -> E::Output {
+        self.0.run()
+    }
+}
+
+/// A leaf's two packets in the ray's frame, as [`watertight_decide`](raylume_intersect::watertight_decide)
+/// forms them, lane by lane: the vertices' sheared coordinates (`z` not yet scaled) and the edge
+/// functions.
+struct Edges {
+    x: [__m256; 3],
+    y: [__m256; 3],
+    z: [__m256; 3],
+    u: __m256,
+    v: __m256,
+    w: __m256,
+}
+
+/// [`Edges`] of `leaf` for `ray`, with the very operations of [`candidates`](super::triangles::candidates).
+#[inline(always)]
+fn edges(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> Edges {
+    // Both packets, the second empty in a leaf of four or fewer (its lanes are masked off by the
+    // callers): no branch on the leaf's size. No closures here: each must be inlined for its intrinsics
+    // to be (see `Walk`).
+    let avx = simd.avx;
+    let [p, q] = &leaf.packets;
+    let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
+    let (sx, sy) = (avx._mm256_set1_ps(ray.shear[0]), avx._mm256_set1_ps(ray.shear[1]));
+    let o = ray.origin.to_array();
+    let (ox, oy, oz) = (avx._mm256_set1_ps(o[kx]), avx._mm256_set1_ps(o[ky]), avx._mm256_set1_ps(o[kz]));
+    // Vertex k's coordinates along the ray's frame, sheared, for both packets.
+    macro_rules! sheared {
+        ($k:literal) => {{
+            let x = avx._mm256_set_m128(pulp::cast(q.v[$k][kx]), pulp::cast(p.v[$k][kx]));
+            let y = avx._mm256_set_m128(pulp::cast(q.v[$k][ky]), pulp::cast(p.v[$k][ky]));
+            let z = avx._mm256_set_m128(pulp::cast(q.v[$k][kz]), pulp::cast(p.v[$k][kz]));
+            let az = avx._mm256_sub_ps(z, oz);
+            (
+                avx._mm256_sub_ps(avx._mm256_sub_ps(x, ox), avx._mm256_mul_ps(sx, az)),
+                avx._mm256_sub_ps(avx._mm256_sub_ps(y, oy), avx._mm256_mul_ps(sy, az)),
+                az,
+            )
+        }};
+    }
+    let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (sheared!(0), sheared!(1), sheared!(2));
+    macro_rules! edge {
+        ($p:ident, $q:ident, $r:ident, $s:ident) => {
+            avx._mm256_sub_ps(avx._mm256_mul_ps($p, $q), avx._mm256_mul_ps($r, $s))
+        };
+    }
+    let (u, v, w) = (edge!(cx, by, cy, bx), edge!(ax, cy, ay, cx), edge!(bx, ay, by, ax));
+    Edges { x: [ax, bx, cx], y: [ay, by, cy], z: [az, bz, cz], u, v, w }
+}
+
+/// The lanes where any of the three edge functions compares with zero as `$op`.
+macro_rules! any_edge {
+    ($avx:ident, $e:ident, $op:ident) => {{
+        let zero = $avx._mm256_setzero_ps();
+        $avx._mm256_or_ps(
+            $avx._mm256_or_ps($avx._mm256_cmp_ps::<$op>($e.u, zero), $avx._mm256_cmp_ps::<$op>($e.v, zero)),
+            $avx._mm256_cmp_ps::<$op>($e.w, zero),
+        )
+    }};
+}
+
+/// The candidate lanes of a leaf of `count` triangles: those whose edge functions are not non-zero
+/// with mixed signs.
+#[inline(always)]
+fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
+    let avx = simd.avx;
+    let (negative, positive, on_edge) =
+        (any_edge!(avx, e, _CMP_LT_OQ), any_edge!(avx, e, _CMP_GT_OQ), any_edge!(avx, e, _CMP_EQ_OQ));
+    let rejected = avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32
+        & !(avx._mm256_movemask_ps(on_edge) as u32);
+    !rejected & ((1 << count) - 1)
+}
+
+/// The any-hit verdict of a leaf's lanes, decided in AVX registers with the operations of the scalar
+/// watertight test: `hit`, lanes the scalar test accepts; `open`, candidates it must decide itself
+/// (an edge function zero or NaN, or a distance too close to call in f32, where it goes on in f64).
+/// Every other lane is one the scalar test rejects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Verdict {
+    hit: u32,
+    open: u32,
+}
+
+/// The [`Verdict`] of the lanes of a leaf of `count` triangles, all with a unit normal (the BVH leaves
+/// out those without), for `ray` within `range`.
+#[inline(always)]
+fn verdict(simd: V3, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> Verdict {
+    let avx = simd.avx;
+    let e = edges(simd, leaf, ray);
+    let candidates = candidate_lanes(simd, &e, count);
+    // Lanes the vector test decides: no edge function zero (the scalar test recomputes those in f64)
+    // or NaN (a NaN among the maxima below would be taken where `f32::max` skips it).
+    let zero = avx._mm256_setzero_ps();
+    let nonzero = avx._mm256_and_ps(
+        avx._mm256_and_ps(avx._mm256_cmp_ps::<_CMP_NEQ_OQ>(e.u, zero), avx._mm256_cmp_ps::<_CMP_NEQ_OQ>(e.v, zero)),
+        avx._mm256_cmp_ps::<_CMP_NEQ_OQ>(e.w, zero),
+    );
+    let decided = candidates & avx._mm256_movemask_ps(nonzero) as u32;
+    if decided == 0 {
+        return Verdict { hit: 0, open: candidates };
+    }
+    let sz = avx._mm256_set1_ps(ray.shear[2]);
+    let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
+    let det = avx._mm256_add_ps(avx._mm256_add_ps(e.u, e.v), e.w);
+    // The distance in f64 from the exact products, then rounded to f32, as the scalar test forms it.
+    macro_rules! distance {
+        ($half:ident) => {{
+            let wide = |x: __m256| avx._mm256_cvtps_pd($half(avx, x));
+            let (u, v, w) = (wide(e.u), wide(e.v), wide(e.w));
+            let num = avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(u, wide(az)), avx._mm256_mul_pd(v, wide(bz))),
+                avx._mm256_mul_pd(w, wide(cz)),
+            );
+            avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, avx._mm256_add_pd(avx._mm256_add_pd(u, v), w)))
+        }};
+    }
+    let t = avx._mm256_set_m128(distance!(high), distance!(low));
+    // pbrt-v4's bound on the error of t, as the scalar test computes it.
+    let abs = |x: __m256| avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), x);
+    let max3 = |[a, b, c]: [__m256; 3]| avx._mm256_max_ps(avx._mm256_max_ps(abs(a), abs(b)), abs(c));
+    let splat = |x: f32| avx._mm256_set1_ps(x);
+    let (max_zt, max_xt, max_yt) = (max3([az, bz, cz]), max3(e.x), max3(e.y));
+    let delta_z = avx._mm256_mul_ps(splat(gamma(3)), max_zt);
+    let delta_x = avx._mm256_mul_ps(splat(gamma(5)), avx._mm256_add_ps(max_xt, max_zt));
+    let delta_y = avx._mm256_mul_ps(splat(gamma(5)), avx._mm256_add_ps(max_yt, max_zt));
+    let delta_e = avx._mm256_mul_ps(
+        splat(2.0),
+        avx._mm256_add_ps(
+            avx._mm256_add_ps(
+                avx._mm256_mul_ps(avx._mm256_mul_ps(splat(gamma(2)), max_xt), max_yt),
+                avx._mm256_mul_ps(delta_y, max_xt),
+            ),
+            avx._mm256_mul_ps(delta_x, max_yt),
+        ),
+    );
+    let max_e = max3([e.u, e.v, e.w]);
+    let inv = avx._mm256_div_ps(splat(1.0), det);
+    let delta_t = avx._mm256_mul_ps(
+        avx._mm256_mul_ps(
+            splat(3.0),
+            avx._mm256_add_ps(
+                avx._mm256_add_ps(
+                    avx._mm256_mul_ps(avx._mm256_mul_ps(splat(gamma(3)), max_e), max_zt),
+                    avx._mm256_mul_ps(delta_e, max_zt),
+                ),
+                avx._mm256_mul_ps(delta_z, max_e),
+            ),
+        ),
+        abs(inv),
+    );
+    let finite = |x: __m256| avx._mm256_cmp_ps::<_CMP_LT_OQ>(abs(x), splat(f32::INFINITY));
+    let in_range = avx._mm256_and_ps(
+        avx._mm256_and_ps(
+            avx._mm256_cmp_ps::<_CMP_GE_OQ>(t, splat(range.min)),
+            avx._mm256_cmp_ps::<_CMP_LE_OQ>(t, splat(range.max)),
+        ),
+        finite(t),
+    );
+    // The scalar test rejects a lane whose determinant is not finite (it is not zero: the edge functions
+    // are non-zero and of one sign) or whose distance is out of range; it accepts one whose distance is
+    // beyond the error bound (a NaN bound compares false: the f64 test decides), the normal known.
+    let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
+    let beyond = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)) as u32;
+    let hit = decided & kept & beyond;
+    Verdict { hit, open: (candidates & !decided) | (decided & kept & !beyond) }
+}
+
+/// The low and high four lanes of a vector.
+#[inline(always)]
+fn low(avx: pulp::core_arch::x86::Avx, x: __m256) -> __m128 {
+    avx._mm256_castps256_ps128(x)
+}
+
+#[inline(always)]
+fn high(avx: pulp::core_arch::x86::Avx, x: __m256) -> __m128 {
+    avx._mm256_extractf128_ps::<1>(x)
+}
+
 impl Filter for V3 {
+    #[inline(always)]
+    fn exact<E: Exact>(self, test: E) -> E::Output {
+        self.vectorize(Compiled(test))
+    }
+
     /// [`Portable`](super::triangles::Portable)'s filter with the very operations of [`candidates`](super::triangles::candidates),
     /// on both packets of a leaf at once.
     #[inline(always)]
     fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
-        // Both packets, the second empty in a leaf of four or fewer (its lanes are masked off below): no
-        // branch on the leaf's size. No closures here: each must be inlined for its intrinsics to be (see `Walk`).
-        let avx = self.avx;
-        let [p, q] = &leaf.packets;
-        let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
-        let (sx, sy) = (avx._mm256_set1_ps(ray.shear[0]), avx._mm256_set1_ps(ray.shear[1]));
-        let o = ray.origin.to_array();
-        let (ox, oy, oz) = (avx._mm256_set1_ps(o[kx]), avx._mm256_set1_ps(o[ky]), avx._mm256_set1_ps(o[kz]));
-        // Vertex k's coordinates along the ray's frame, sheared, for both packets.
-        macro_rules! sheared {
-            ($k:literal) => {{
-                let x = avx._mm256_set_m128(pulp::cast(q.v[$k][kx]), pulp::cast(p.v[$k][kx]));
-                let y = avx._mm256_set_m128(pulp::cast(q.v[$k][ky]), pulp::cast(p.v[$k][ky]));
-                let z = avx._mm256_set_m128(pulp::cast(q.v[$k][kz]), pulp::cast(p.v[$k][kz]));
-                let az = avx._mm256_sub_ps(z, oz);
-                (
-                    avx._mm256_sub_ps(avx._mm256_sub_ps(x, ox), avx._mm256_mul_ps(sx, az)),
-                    avx._mm256_sub_ps(avx._mm256_sub_ps(y, oy), avx._mm256_mul_ps(sy, az)),
-                )
-            }};
-        }
-        let ((ax, ay), (bx, by), (cx, cy)) = (sheared!(0), sheared!(1), sheared!(2));
-        macro_rules! edge {
-            ($p:ident, $q:ident, $r:ident, $s:ident) => {
-                avx._mm256_sub_ps(avx._mm256_mul_ps($p, $q), avx._mm256_mul_ps($r, $s))
-            };
-        }
-        let (u, v, w) = (edge!(cx, by, cy, bx), edge!(ax, cy, ay, cx), edge!(bx, ay, by, ax));
-        let zero = avx._mm256_setzero_ps();
-        // The lanes where any of the three edge functions compares with zero as `$op`.
-        macro_rules! any {
-            ($op:ident) => {
-                avx._mm256_or_ps(
-                    avx._mm256_or_ps(avx._mm256_cmp_ps::<$op>(u, zero), avx._mm256_cmp_ps::<$op>(v, zero)),
-                    avx._mm256_cmp_ps::<$op>(w, zero),
-                )
-            };
-        }
-        let (negative, positive, on_edge) = (any!(_CMP_LT_OQ), any!(_CMP_GT_OQ), any!(_CMP_EQ_OQ));
-        let rejected = avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32
-            & !(avx._mm256_movemask_ps(on_edge) as u32);
-        !rejected & ((1 << count) - 1)
+        candidate_lanes(self, &edges(self, leaf, ray), count)
+    }
+
+    /// The vector [`Verdict`] of the leaf's lanes; the scalar test for the lanes it leaves open.
+    #[inline(always)]
+    fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
+        let Verdict { hit, open } = verdict(self, leaf, count, ray, range);
+        hit != 0 || super::occluded_in_leaf(self, leaf, open, ray, range)
     }
 }
 
@@ -407,6 +568,38 @@ mod tests {
     use super::super::triangles::tests::arb_point;
     use super::super::wide::BoxRay;
     use super::*;
+
+    /// The vector verdict decides almost every hit and miss itself: of rays aimed at random points of
+    /// random triangles (and of the plane around them), at most one lane in a hundred is left open.
+    #[test]
+    fn vector_verdict_leaves_few_lanes_open() {
+        use rand_core::{Rng, SeedableRng};
+        let Some(simd) = V3::try_new() else { return };
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
+        let mut unit = || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        let (mut lanes, mut open, mut hits) = (0, 0, 0);
+        for _ in 0..2000 {
+            let tris: Vec<_> = (0..8)
+                .map(|i| {
+                    let mut p = || Vec3A::new(unit() * 4.0 - 2.0, unit() * 4.0 - 2.0, unit() * 4.0 - 2.0);
+                    (Triangle::new(p(), p(), p()), i)
+                })
+                .collect();
+            let (t, _) = tris[0];
+            let (a, b) = (unit() * 1.5, unit() * 1.5);
+            let target = t.p[0] + (t.p[1] - t.p[0]) * a + (t.p[2] - t.p[0]) * b;
+            let o = Vec3A::new(unit() * 20.0 - 10.0, unit() * 20.0 - 10.0, 10.0);
+            let ray = ShearedRay::new(&Ray::new(o, target - o)).unwrap();
+            let leaf = Leaf::new(tris.iter().copied());
+            let v = simd.vectorize(|| verdict(simd, &leaf, 8, &ray, Interval::POSITIVE));
+            lanes += 8;
+            open += v.open.count_ones();
+            hits += v.hit.count_ones();
+        }
+        println!("{hits} hits and {open} open lanes of {lanes}");
+        assert!(hits > lanes / 16, "too few hits to tell: {hits}");
+        assert!(open * 100 <= lanes, "{open} of {lanes} lanes left to the scalar test");
+    }
 
     /// The default ordering of [`NodeTest`], for comparison.
     struct Scalar;
@@ -523,6 +716,59 @@ mod tests {
             let expected = Portable.leaf_candidates(&leaf, tris.len(), &ray);
             let got = simd.vectorize(|| simd.leaf_candidates(&leaf, tris.len(), &ray));
             prop_assert_eq!(got, expected);
+        }
+
+        /// Each lane the vector verdict decides is decided as the scalar watertight test decides it, and
+        /// the leaf's answer is the scalar one: rays through vertices and edges, rays starting on a
+        /// triangle, large and small scales, meshes far from the origin and short ranges included.
+        #[test]
+        fn vector_verdict_is_the_scalar_one(
+            verts in prop::collection::vec(prop::array::uniform3(arb_point()), 1..=8),
+            scale in prop_oneof![Just(1.0f32), Just(1e-8f32), Just(1e8f32), Just(3e-4f32)],
+            shift in prop_oneof![Just(Vec3A::ZERO), Just(Vec3A::new(1e5, -3e4, 7e4)), Just(Vec3A::splat(-1e-3))],
+            o in arb_point(),
+            target in arb_point(),
+            through in prop::option::of((0usize..8, 0usize..3, prop_oneof![Just(0.0f32), Just(0.5f32), 0.0f32..1.0])),
+            on_surface in any::<bool>(),
+            range in (prop_oneof![Just(0.0f32), 0.0f32..2.0], prop_oneof![Just(f32::INFINITY), Just(f32::MAX), 0.0f32..20.0]),
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let tris: Vec<_> = verts
+                .iter()
+                .map(|v| Triangle::new((v[0] + shift) * scale, (v[1] + shift) * scale, (v[2] + shift) * scale))
+                .filter(raylume_intersect::has_unit_normal)
+                .enumerate()
+                .map(|(i, t)| (t, i as u32))
+                .collect();
+            prop_assume!(!tris.is_empty());
+            let aim = |i: usize, e: usize, s: f32| {
+                let t = tris[i % tris.len()].0;
+                t.p[e] + (t.p[(e + 1) % 3] - t.p[e]) * s
+            };
+            let target = match through {
+                Some((i, e, s)) => aim(i, e, s),
+                None => (target + shift) * scale,
+            };
+            // A ray leaving the first triangle's centroid: its own surface is within the error bound.
+            let o = if on_surface { (tris[0].0.p[0] + tris[0].0.p[1] + tris[0].0.p[2]) / 3.0 } else { (o + shift) * scale };
+            prop_assume!(target != o && (target - o).is_finite());
+            let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
+            let range = Interval::new(range.0 * scale, range.1 * scale);
+            let leaf = Leaf::new(tris.iter().copied());
+            let Verdict { hit, open } = simd.vectorize(|| verdict(simd, &leaf, tris.len(), &ray, range));
+            prop_assert_eq!(hit & open, 0);
+            prop_assert_eq!((hit | open) >> tris.len(), 0);
+            for (bit, (t, _)) in tris.iter().enumerate() {
+                let scalar = raylume_intersect::watertight_hits(t, &ray, range);
+                if (hit | open) & (1 << bit) == 0 {
+                    prop_assert!(!scalar, "lane {} rejected, the scalar test hits it", bit);
+                }
+                if hit & (1 << bit) != 0 {
+                    prop_assert!(scalar, "lane {} accepted, the scalar test misses it", bit);
+                }
+            }
+            let expected = Portable.leaf_occluded(&leaf, tris.len(), &ray, range);
+            prop_assert_eq!(simd.vectorize(|| simd.leaf_occluded(&leaf, tris.len(), &ray, range)), expected);
         }
 
         /// The vector push leaves the stack as the scalar one does in closest-hit walks (the nearest

@@ -15,9 +15,9 @@ mod wide;
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
-use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
+use raylume_intersect::{Intersect, ShearedRay, TriangleHit, has_unit_normal};
 use stream::PacketQuery;
-use triangles::{Filter, LANES, Leaf, Portable};
+use triangles::{Exact, Filter, LANES, Leaf, Portable};
 use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
@@ -170,6 +170,11 @@ impl<P: Intersect + Clone> Bvh<P> {
             let b = p.bounds_over(shutter);
             if b.is_finite() && !b.is_empty() {
                 if let Some(t) = p.as_triangle() {
+                    // A triangle without a unit normal is never hit: leaving it out lets the leaves' vector
+                    // test skip that check.
+                    if !has_unit_normal(&t) {
+                        continue;
+                    }
                     tri_items.push(BuildItem { bounds: b, centroid: b.centroid(), index: tris.len() as u32 });
                     tris.push((t, i as u32));
                 } else {
@@ -228,7 +233,8 @@ impl<P: Intersect + Clone> Bvh<P> {
 /// Tests the candidate `lanes` of leaf `first` for the closest hit within `range`, keeping it in
 /// `found` (the hit, its leaf and candidate bit); returns the new end of the range.
 #[inline(always)]
-fn closest_in_leaf(
+fn closest_in_leaf<F: Filter>(
+    filter: F,
     leaves: &[Leaf],
     first: usize,
     lanes: u32,
@@ -236,48 +242,83 @@ fn closest_in_leaf(
     range: Interval,
     found: &mut Option<(TriangleHit, u32, u32)>,
 ) -> f32 {
-    if lanes == 0 { range.max } else { closest_of_candidates(&leaves[first], first, lanes, ray, range, found) }
+    if lanes == 0 {
+        range.max
+    } else {
+        closest_of_candidates(filter, ClosestOfCandidates { leaf: &leaves[first], first, lanes, ray, range, found })
+    }
 }
 
 /// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
 /// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
 #[inline(never)]
-fn closest_of_candidates(
-    leaf: &Leaf,
-    first: usize,
-    mut lanes: u32,
-    ray: &ShearedRay,
-    mut range: Interval,
-    found: &mut Option<(TriangleHit, u32, u32)>,
-) -> f32 {
-    while lanes != 0 {
-        let bit = lanes.trailing_zeros();
-        lanes &= lanes - 1;
-        if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
-            range = range.with_max(h.t);
-            *found = Some((h, first as u32, bit));
-        }
-    }
-    range.max
+fn closest_of_candidates<F: Filter>(filter: F, test: ClosestOfCandidates) -> f32 {
+    filter.exact(test)
 }
 
-/// Whether any triangle among the candidate `lanes` of leaf `first` is hit within `range`.
+/// The arguments of [`closest_of_candidates`].
+struct ClosestOfCandidates<'a> {
+    leaf: &'a Leaf,
+    first: usize,
+    lanes: u32,
+    ray: &'a ShearedRay,
+    range: Interval,
+    found: &'a mut Option<(TriangleHit, u32, u32)>,
+}
+
+impl Exact for ClosestOfCandidates<'_> {
+    type Output = f32;
+
+    #[inline(always)]
+    fn run(self) -> f32 {
+        let Self { leaf, first, mut lanes, ray, mut range, found } = self;
+        while lanes != 0 {
+            let bit = lanes.trailing_zeros();
+            lanes &= lanes - 1;
+            if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
+                range = range.with_max(h.t);
+                *found = Some((h, first as u32, bit));
+            }
+        }
+        range.max
+    }
+}
+
+/// Whether any triangle among the candidate `lanes` of `leaf` is hit within `range`, by the scalar test.
 #[inline(always)]
-fn occluded_in_leaf(leaves: &[Leaf], first: usize, lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
-    lanes != 0 && any_candidate_hit(&leaves[first], lanes, ray, range)
+fn occluded_in_leaf<F: Filter>(filter: F, leaf: &Leaf, lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
+    lanes != 0 && any_candidate_hit(filter, AnyCandidateHit { leaf, lanes, ray, range })
 }
 
 /// [`occluded_in_leaf`] of a leaf with candidates; not inlined, as [`closest_of_candidates`].
 #[inline(never)]
-fn any_candidate_hit(leaf: &Leaf, mut lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
-    while lanes != 0 {
-        let bit = lanes.trailing_zeros();
-        lanes &= lanes - 1;
-        if raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range) {
-            return true;
+fn any_candidate_hit<F: Filter>(filter: F, test: AnyCandidateHit) -> bool {
+    filter.exact(test)
+}
+
+/// The arguments of [`any_candidate_hit`].
+struct AnyCandidateHit<'a> {
+    leaf: &'a Leaf,
+    lanes: u32,
+    ray: &'a ShearedRay,
+    range: Interval,
+}
+
+impl Exact for AnyCandidateHit<'_> {
+    type Output = bool;
+
+    #[inline(always)]
+    fn run(self) -> bool {
+        let Self { leaf, mut lanes, ray, range } = self;
+        while lanes != 0 {
+            let bit = lanes.trailing_zeros();
+            lanes &= lanes - 1;
+            if raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range) {
+                return true;
+            }
         }
+        false
     }
-    false
 }
 
 /// One ray's view of the triangles' leaves: their candidates for the ray, with the ray's watertight
@@ -294,16 +335,24 @@ impl<'a, F: Filter> RayLeaves<'a, F> {
         Self { filter, leaves, ray, sheared: None }
     }
 
-    /// The leaf's index, its candidate lanes and the prepared ray; `None` for a ray without a
+    /// The leaf's index, its number of triangles and the prepared ray; `None` for a ray without a
     /// watertight frame (it hits no triangle).
     #[inline(always)]
-    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
+    fn prepared<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, usize, &ShearedRay)> {
         let (first, count) = leaf_range(leaf);
         for _ in 0..count {
             tally.tested();
         }
         let sheared = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)).as_ref()?;
-        Some((first, self.filter.leaf_candidates(&self.leaves[first], count, sheared), sheared))
+        Some((first, count, sheared))
+    }
+
+    /// The leaf's index, its candidate lanes and the prepared ray; `None` as [`RayLeaves::prepared`].
+    #[inline(always)]
+    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
+        let (filter, leaves) = (self.filter, self.leaves);
+        let (first, count, sheared) = self.prepared(leaf, tally)?;
+        Some((first, filter.leaf_candidates(&leaves[first], count, sheared), sheared))
     }
 }
 
@@ -318,9 +367,9 @@ struct ClosestLeaf<'a, F> {
 impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let leaves = self.leaves.leaves;
+        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
         let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
-        closest_in_leaf(leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
+        closest_in_leaf(filter, leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
     }
 }
 
@@ -334,10 +383,10 @@ struct OccludedLeaf<'a, F> {
 impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let leaves = self.leaves.leaves;
-        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
+        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
+        let Some((first, count, sheared)) = self.leaves.prepared(leaf, tally) else { return t_max };
         // An any-hit walk's range ends where the query's does until the first hit, which ends the walk.
-        self.hit = occluded_in_leaf(leaves, first, lanes, sheared, Interval::new(0.0, t_max));
+        self.hit = filter.leaf_occluded(&leaves[first], count, sheared, Interval::new(0.0, t_max));
         if self.hit { f32::NEG_INFINITY } else { t_max }
     }
 }

@@ -7,9 +7,9 @@ use glam::Vec4;
 use raylume_geometry::{Interval, Ray, Vec3A};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
+use super::closest_in_leaf;
 use super::triangles::{Filter, Leaf};
 use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals};
-use super::{closest_in_leaf, occluded_in_leaf};
 
 /// Rays per packet.
 pub(super) const PACKET: usize = 64;
@@ -178,7 +178,15 @@ impl<F: Filter> RayTest for Closest<'_, F> {
     #[inline(always)]
     fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
         let lanes = self.filter.leaf_candidates(&self.leaves[first], count, sheared);
-        closest_in_leaf(self.leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found[i])
+        closest_in_leaf(
+            self.filter,
+            self.leaves,
+            first,
+            lanes,
+            sheared,
+            Interval::new(self.t_min, t_max),
+            &mut self.found[i],
+        )
     }
 }
 
@@ -192,8 +200,7 @@ struct Occluded<'a, F> {
 impl<F: Filter> RayTest for Occluded<'_, F> {
     #[inline(always)]
     fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
-        let lanes = self.filter.leaf_candidates(&self.leaves[first], count, sheared);
-        if occluded_in_leaf(self.leaves, first, lanes, sheared, Interval::new(0.0, t_max)) {
+        if self.filter.leaf_occluded(&self.leaves[first], count, sheared, Interval::new(0.0, t_max)) {
             self.occluded[i] = true;
             f32::NEG_INFINITY
         } else {

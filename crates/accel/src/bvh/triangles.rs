@@ -5,7 +5,7 @@
 //! [`watertight_decide`]: raylume_intersect::watertight_decide
 
 use glam::Vec4;
-use raylume_geometry::{Triangle, Vec3A};
+use raylume_geometry::{Interval, Triangle, Vec3A};
 use raylume_intersect::ShearedRay;
 
 /// Triangles per packet.
@@ -127,6 +127,27 @@ pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
 pub(super) trait Filter: Copy {
     /// The candidate triangles of a leaf holding `count`: bit `4 j + l` for lane `l` of packet `j`.
     fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32;
+
+    /// Whether a triangle of a leaf holding `count` is hit within `range`: the answer of the scalar
+    /// watertight test of its candidates.
+    #[inline(always)]
+    fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
+        super::occluded_in_leaf(self, leaf, self.leaf_candidates(leaf, count, ray), ray, range)
+    }
+
+    /// Runs a leaf's exact test compiled with the filter's target features (the test's function is not
+    /// inlined into the walk, see `closest_of_candidates`, so it does not inherit them).
+    #[inline(always)]
+    fn exact<E: Exact>(self, test: E) -> E::Output {
+        test.run()
+    }
+}
+
+/// An exact test of a leaf's candidates, as a function object whose call is always inlined into the
+/// function [`Filter::exact`] compiles it in.
+pub(super) trait Exact {
+    type Output;
+    fn run(self) -> Self::Output;
 }
 
 /// The filter of baseline x86-64 (and of every other target): one packet at a time.
