@@ -178,7 +178,7 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     // The hit is decided; its distance is refined on the plane through the vertices, in f64, where
     // the differences and cross products of f32 coordinates are (nearly) exact. This keeps t at a few
     // ulps even for large triangles seen at grazing angles, where the sheared coordinates lose it.
-    let t = if REFINE { plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t) } else { t };
+    let t = if REFINE { refined_distance(tri, ray, t_range, t) } else { t };
     Some(TriangleHit { t, b: [u * inv, v * inv, w * inv], normal })
 }
 
@@ -194,6 +194,15 @@ pub fn has_unit_normal(tri: &Triangle) -> bool {
 fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
     let normal = tri.normal().normalize_or_zero();
     (normal != Vec3A::ZERO && normal.is_finite()).then_some(normal)
+}
+
+/// The distance of a hit that [`watertight_decide`] accepted at `t` within `t_range`, as it reports it:
+/// the distance to the plane through the vertices, computed in f64, when that is within the range;
+/// else `t`. Accelerators that decide hits by the same operations in vector registers refine the
+/// accepted ones with it.
+#[inline]
+pub fn refined_distance(tri: &Triangle, ray: &ShearedRay, t_range: Interval, t: f32) -> f32 {
+    plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t)
 }
 
 /// The ray parameter where the ray meets the plane of the triangle's vertices, computed in f64.

@@ -7,7 +7,7 @@
 
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
-use raylume_intersect::ShearedRay;
+use raylume_intersect::{ShearedRay, TriangleHit};
 use std::arch::x86_64::{
     __m128, __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ,
 };
@@ -437,19 +437,21 @@ fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
 /// watertight test: `hit`, lanes the scalar test accepts; `open`, candidates it must decide itself
 /// (an edge function zero or NaN, or a distance too close to call in f32, where it goes on in f64).
 /// Every other lane is one the scalar test rejects.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// With them, each lane's distance (rounded from f64, as the scalar test's) and the reciprocal of its
+/// determinant (the barycentrics' scale), meaningful in the `hit` lanes.
+#[derive(Clone, Copy, Debug)]
 struct Verdict {
     hit: u32,
     open: u32,
+    t: __m256,
+    inv: __m256,
 }
 
-/// The [`Verdict`] of the lanes of a leaf of `count` triangles, all with a unit normal (the BVH leaves
-/// out those without), for `ray` within `range`.
+/// The [`Verdict`] of the `candidates` lanes of a leaf whose triangles all have a unit normal (the BVH
+/// leaves out those without), of edge functions `e`, for `ray` within `range`.
 #[inline(always)]
-fn verdict(simd: V3, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> Verdict {
+fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interval) -> Verdict {
     let avx = simd.avx;
-    let e = edges(simd, leaf, ray);
-    let candidates = candidate_lanes(simd, &e, count);
     // Lanes the vector test decides: no edge function zero (the scalar test recomputes those in f64)
     // or NaN (a NaN among the maxima below would be taken where `f32::max` skips it).
     let zero = avx._mm256_setzero_ps();
@@ -459,7 +461,7 @@ fn verdict(simd: V3, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interva
     );
     let decided = candidates & avx._mm256_movemask_ps(nonzero) as u32;
     if decided == 0 {
-        return Verdict { hit: 0, open: candidates };
+        return Verdict { hit: 0, open: candidates, t: zero, inv: zero };
     }
     let sz = avx._mm256_set1_ps(ray.shear[2]);
     let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
@@ -524,7 +526,50 @@ fn verdict(simd: V3, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interva
     let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
     let beyond = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)) as u32;
     let hit = decided & kept & beyond;
-    Verdict { hit, open: (candidates & !decided) | (decided & kept & !beyond) }
+    Verdict { hit, open: (candidates & !decided) | (decided & kept & !beyond), t, inv }
+}
+
+/// [`Filter::closest_of_candidates`] with the lanes' verdict, distance and barycentrics from AVX
+/// registers: the candidates are taken in turn as the scalar loop takes them, the scalar test run only
+/// for the lanes the verdict leaves open, and an accepted lane's distance refined as it refines it.
+#[inline(always)]
+fn closest_of_candidates(
+    simd: V3,
+    leaf: &Leaf,
+    first: usize,
+    lanes: u32,
+    ray: &ShearedRay,
+    mut range: Interval,
+    found: &mut Option<(TriangleHit, u32, u32)>,
+) -> f32 {
+    let avx = simd.avx;
+    let e = edges(simd, leaf, ray);
+    let Verdict { hit, open, t, inv } = verdict(simd, &e, lanes, ray, range);
+    if hit == 0 {
+        return super::closest_of_candidates_scalar(leaf, first, open, ray, range, found);
+    }
+    let t: [f32; 8] = pulp::cast(t);
+    let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
+    let mut todo = hit | open;
+    while todo != 0 {
+        let bit = todo.trailing_zeros();
+        todo &= todo - 1;
+        let i = bit as usize;
+        if open & (1 << bit) != 0 {
+            if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
+                range = range.with_max(h.t);
+                *found = Some((h, first as u32, bit));
+            }
+        } else if t[i] <= range.max {
+            // Accepted as the scalar test accepts it (its distance within the range, which only narrows).
+            let tri = leaf.triangle(bit);
+            let t = raylume_intersect::refined_distance(&tri, ray, range, t[i]);
+            let normal = tri.normal().normalize_or_zero();
+            range = range.with_max(t);
+            *found = Some((TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]], normal }, first as u32, bit));
+        }
+    }
+    range.max
 }
 
 /// The low and high four lanes of a vector.
@@ -554,8 +599,22 @@ impl Filter for V3 {
     /// The vector [`Verdict`] of the leaf's lanes; the scalar test for the lanes it leaves open.
     #[inline(always)]
     fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
-        let Verdict { hit, open } = verdict(self, leaf, count, ray, range);
+        let e = edges(self, leaf, ray);
+        let Verdict { hit, open, .. } = verdict(self, &e, candidate_lanes(self, &e, count), ray, range);
         hit != 0 || super::occluded_in_leaf(self, leaf, open, ray, range)
+    }
+
+    #[inline(always)]
+    fn closest_of_candidates(
+        self,
+        leaf: &Leaf,
+        first: usize,
+        lanes: u32,
+        ray: &ShearedRay,
+        range: Interval,
+        found: &mut Option<(TriangleHit, u32, u32)>,
+    ) -> f32 {
+        closest_of_candidates(self, leaf, first, lanes, ray, range, found)
     }
 }
 
@@ -591,7 +650,10 @@ mod tests {
             let o = Vec3A::new(unit() * 20.0 - 10.0, unit() * 20.0 - 10.0, 10.0);
             let ray = ShearedRay::new(&Ray::new(o, target - o)).unwrap();
             let leaf = Leaf::new(tris.iter().copied());
-            let v = simd.vectorize(|| verdict(simd, &leaf, 8, &ray, Interval::POSITIVE));
+            let v = simd.vectorize(|| {
+                let e = edges(simd, &leaf, &ray);
+                verdict(simd, &e, candidate_lanes(simd, &e, 8), &ray, Interval::POSITIVE)
+            });
             lanes += 8;
             open += v.open.count_ones();
             hits += v.hit.count_ones();
@@ -755,7 +817,10 @@ mod tests {
             let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
             let range = Interval::new(range.0 * scale, range.1 * scale);
             let leaf = Leaf::new(tris.iter().copied());
-            let Verdict { hit, open } = simd.vectorize(|| verdict(simd, &leaf, tris.len(), &ray, range));
+            let Verdict { hit, open, .. } = simd.vectorize(|| {
+                let e = edges(simd, &leaf, &ray);
+                verdict(simd, &e, candidate_lanes(simd, &e, tris.len()), &ray, range)
+            });
             prop_assert_eq!(hit & open, 0);
             prop_assert_eq!((hit | open) >> tris.len(), 0);
             for (bit, (t, _)) in tris.iter().enumerate() {
@@ -769,6 +834,30 @@ mod tests {
             }
             let expected = Portable.leaf_occluded(&leaf, tris.len(), &ray, range);
             prop_assert_eq!(simd.vectorize(|| simd.leaf_occluded(&leaf, tris.len(), &ray, range)), expected);
+            // The closest hit: the same hit, distance, barycentrics and normal, bit for bit, and the same
+            // end of the range, as the scalar loop over the candidates.
+            let lanes = Portable.leaf_candidates(&leaf, tris.len(), &ray);
+            let (mut scalar, mut vector) = (None, None);
+            let end = Portable.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut scalar);
+            let got = simd.vectorize(|| simd.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut vector));
+            let bits = |f: Option<(TriangleHit, u32, u32)>| {
+                f.map(|(h, leaf, bit)| (h.t.to_bits(), h.b.map(f32::to_bits), h.normal.to_array().map(f32::to_bits), leaf, bit))
+            };
+            prop_assert_eq!(got.to_bits(), end.to_bits());
+            prop_assert_eq!(bits(vector), bits(scalar));
+            // Ranges ending a few ulps around the hit, where the refined distance may fall outside the
+            // range while the unrefined one is inside.
+            if let Some((h, _, _)) = scalar {
+                for ulps in -3i32..=3 {
+                    let max = f32::from_bits((h.t.to_bits() as i32 + ulps) as u32);
+                    let range = range.with_max(max);
+                    let (mut scalar, mut vector) = (None, None);
+                    let end = Portable.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut scalar);
+                    let got = simd.vectorize(|| simd.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut vector));
+                    prop_assert_eq!(got.to_bits(), end.to_bits());
+                    prop_assert_eq!(bits(vector), bits(scalar));
+                }
+            }
         }
 
         /// The vector push leaves the stack as the scalar one does in closest-hit walks (the nearest

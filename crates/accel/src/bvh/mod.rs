@@ -245,19 +245,20 @@ fn closest_in_leaf<F: Filter>(
     if lanes == 0 {
         range.max
     } else {
-        closest_of_candidates(filter, ClosestOfCandidates { leaf: &leaves[first], first, lanes, ray, range, found })
+        closest_of_candidates(ClosestOfCandidates { filter, leaf: &leaves[first], first, lanes, ray, range, found })
     }
 }
 
 /// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
 /// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
 #[inline(never)]
-fn closest_of_candidates<F: Filter>(filter: F, test: ClosestOfCandidates) -> f32 {
-    filter.exact(test)
+fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
+    test.filter.exact(test)
 }
 
 /// The arguments of [`closest_of_candidates`].
-struct ClosestOfCandidates<'a> {
+struct ClosestOfCandidates<'a, F> {
+    filter: F,
     leaf: &'a Leaf,
     first: usize,
     lanes: u32,
@@ -266,22 +267,35 @@ struct ClosestOfCandidates<'a> {
     found: &'a mut Option<(TriangleHit, u32, u32)>,
 }
 
-impl Exact for ClosestOfCandidates<'_> {
+impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
     type Output = f32;
 
     #[inline(always)]
     fn run(self) -> f32 {
-        let Self { leaf, first, mut lanes, ray, mut range, found } = self;
-        while lanes != 0 {
-            let bit = lanes.trailing_zeros();
-            lanes &= lanes - 1;
-            if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
-                range = range.with_max(h.t);
-                *found = Some((h, first as u32, bit));
-            }
-        }
-        range.max
+        let Self { filter, leaf, first, lanes, ray, range, found } = self;
+        filter.closest_of_candidates(leaf, first, lanes, ray, range, found)
     }
+}
+
+/// [`Filter::closest_of_candidates`] by the scalar watertight test of each candidate in turn.
+#[inline(always)]
+fn closest_of_candidates_scalar(
+    leaf: &Leaf,
+    first: usize,
+    mut lanes: u32,
+    ray: &ShearedRay,
+    mut range: Interval,
+    found: &mut Option<(TriangleHit, u32, u32)>,
+) -> f32 {
+    while lanes != 0 {
+        let bit = lanes.trailing_zeros();
+        lanes &= lanes - 1;
+        if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
+            range = range.with_max(h.t);
+            *found = Some((h, first as u32, bit));
+        }
+    }
+    range.max
 }
 
 /// Whether any triangle among the candidate `lanes` of `leaf` is hit within `range`, by the scalar test.
