@@ -487,29 +487,11 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     let delta_z = avx._mm256_mul_ps(splat(gamma(3)), max_zt);
     let delta_x = avx._mm256_mul_ps(splat(gamma(5)), avx._mm256_add_ps(max_xt, max_zt));
     let delta_y = avx._mm256_mul_ps(splat(gamma(5)), avx._mm256_add_ps(max_yt, max_zt));
-    let delta_e = avx._mm256_mul_ps(
-        splat(2.0),
-        avx._mm256_add_ps(
-            avx._mm256_add_ps(
-                avx._mm256_mul_ps(avx._mm256_mul_ps(splat(gamma(2)), max_xt), max_yt),
-                avx._mm256_mul_ps(delta_y, max_xt),
-            ),
-            avx._mm256_mul_ps(delta_x, max_yt),
-        ),
-    );
+    let delta_e = error_term(avx, 2.0, (gamma(2), [max_xt, max_yt]), [delta_y, max_xt], [delta_x, max_yt]);
     let max_e = max3([e.u, e.v, e.w]);
     let inv = avx._mm256_div_ps(splat(1.0), det);
     let delta_t = avx._mm256_mul_ps(
-        avx._mm256_mul_ps(
-            splat(3.0),
-            avx._mm256_add_ps(
-                avx._mm256_add_ps(
-                    avx._mm256_mul_ps(avx._mm256_mul_ps(splat(gamma(3)), max_e), max_zt),
-                    avx._mm256_mul_ps(delta_e, max_zt),
-                ),
-                avx._mm256_mul_ps(delta_z, max_e),
-            ),
-        ),
+        error_term(avx, 3.0, (gamma(3), [max_e, max_zt]), [delta_e, max_zt], [delta_z, max_e]),
         abs(inv),
     );
     let finite = |x: __m256| avx._mm256_cmp_ps::<_CMP_LT_OQ>(abs(x), splat(f32::INFINITY));
@@ -570,6 +552,21 @@ fn closest_of_candidates(
         }
     }
     range.max
+}
+
+/// `k * ((c * x * y + p * q) + r * s)` for `(c, [x, y])`, `[p, q]`, `[r, s]`: the shape of both terms of
+/// pbrt-v4's error bound, with the scalar test's operations in its order.
+#[inline(always)]
+fn error_term(
+    avx: pulp::core_arch::x86::Avx,
+    k: f32,
+    (c, [x, y]): (f32, [__m256; 2]),
+    [p, q]: [__m256; 2],
+    [r, s]: [__m256; 2],
+) -> __m256 {
+    let first = avx._mm256_mul_ps(avx._mm256_mul_ps(avx._mm256_set1_ps(c), x), y);
+    let sum = avx._mm256_add_ps(avx._mm256_add_ps(first, avx._mm256_mul_ps(p, q)), avx._mm256_mul_ps(r, s));
+    avx._mm256_mul_ps(avx._mm256_set1_ps(k), sum)
 }
 
 /// The low and high four lanes of a vector.
