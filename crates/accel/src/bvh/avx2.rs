@@ -12,10 +12,10 @@ use std::arch::x86_64::{
     __m128, __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ,
 };
 
-use super::Triangles;
 use super::stream::{Leaves, PacketQuery};
 use super::triangles::{Exact, Filter, Leaf};
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree};
+use super::{Candidates, Triangles};
 use crate::Tally;
 
 /// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
@@ -515,20 +515,13 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
 /// registers: the candidates are taken in turn as the scalar loop takes them, the scalar test run only
 /// for the lanes the verdict leaves open, and an accepted lane's distance refined as it refines it.
 #[inline(always)]
-fn closest_of_candidates(
-    simd: V3,
-    leaf: &Leaf,
-    first: usize,
-    lanes: u32,
-    ray: &ShearedRay,
-    mut range: Interval,
-    found: &mut Option<(TriangleHit, u32, u32)>,
-) -> f32 {
+fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
     let avx = simd.avx;
+    let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
     let e = edges(simd, leaf, ray);
-    let Verdict { hit, open, t, inv } = verdict(simd, &e, lanes, ray, range);
+    let Verdict { hit, open, t, inv } = verdict(simd, &e, test.lanes, ray, range);
     if hit == 0 {
-        return super::closest_of_candidates_scalar(leaf, first, open, ray, range, found);
+        return super::closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
     let t: [f32; 8] = pulp::cast(t);
     let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
@@ -538,17 +531,14 @@ fn closest_of_candidates(
         todo &= todo - 1;
         let i = bit as usize;
         if open & (1 << bit) != 0 {
-            if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
-                range = range.with_max(h.t);
-                *found = Some((h, first as u32, bit));
-            }
+            test.decide(bit, &mut range);
         } else if t[i] <= range.max {
             // Accepted as the scalar test accepts it (its distance within the range, which only narrows).
             let tri = leaf.triangle(bit);
             let t = raylume_intersect::refined_distance(&tri, ray, range, t[i]);
             let normal = tri.normal().normalize_or_zero();
             range = range.with_max(t);
-            *found = Some((TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]], normal }, first as u32, bit));
+            *test.found = Some((TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]], normal }, test.first as u32, bit));
         }
     }
     range.max
@@ -602,16 +592,8 @@ impl Filter for V3 {
     }
 
     #[inline(always)]
-    fn closest_of_candidates(
-        self,
-        leaf: &Leaf,
-        first: usize,
-        lanes: u32,
-        ray: &ShearedRay,
-        range: Interval,
-        found: &mut Option<(TriangleHit, u32, u32)>,
-    ) -> f32 {
-        closest_of_candidates(self, leaf, first, lanes, ray, range, found)
+    fn closest_of_candidates(self, test: Candidates) -> f32 {
+        closest_of_candidates(self, test)
     }
 }
 
@@ -658,6 +640,21 @@ mod tests {
         println!("{hits} hits and {open} open lanes of {lanes}");
         assert!(hits > lanes / 16, "too few hits to tell: {hits}");
         assert!(open * 100 <= lanes, "{open} of {lanes} lanes left to the scalar test");
+    }
+
+    /// `filter`'s closest hit among the candidate `lanes` of `leaf` (as leaf number 3), and the new end
+    /// of the range.
+    #[allow(clippy::type_complexity)]
+    fn closest<F: Filter>(
+        filter: F,
+        leaf: &Leaf,
+        lanes: u32,
+        ray: &ShearedRay,
+        range: Interval,
+    ) -> (f32, Option<(TriangleHit, u32, u32)>) {
+        let mut found = None;
+        let end = filter.closest_of_candidates(Candidates { leaf, first: 3, lanes, ray, range, found: &mut found });
+        (end, found)
     }
 
     /// The default ordering of [`NodeTest`], for comparison.
@@ -834,9 +831,8 @@ mod tests {
             // The closest hit: the same hit, distance, barycentrics and normal, bit for bit, and the same
             // end of the range, as the scalar loop over the candidates.
             let lanes = Portable.leaf_candidates(&leaf, tris.len(), &ray);
-            let (mut scalar, mut vector) = (None, None);
-            let end = Portable.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut scalar);
-            let got = simd.vectorize(|| simd.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut vector));
+            let (end, scalar) = closest(Portable, &leaf, lanes, &ray, range);
+            let (got, vector) = simd.vectorize(|| closest(simd, &leaf, lanes, &ray, range));
             let bits = |f: Option<(TriangleHit, u32, u32)>| {
                 f.map(|(h, leaf, bit)| (h.t.to_bits(), h.b.map(f32::to_bits), h.normal.to_array().map(f32::to_bits), leaf, bit))
             };
@@ -848,9 +844,8 @@ mod tests {
                 for ulps in -3i32..=3 {
                     let max = f32::from_bits((h.t.to_bits() as i32 + ulps) as u32);
                     let range = range.with_max(max);
-                    let (mut scalar, mut vector) = (None, None);
-                    let end = Portable.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut scalar);
-                    let got = simd.vectorize(|| simd.closest_of_candidates(&leaf, 3, lanes, &ray, range, &mut vector));
+                    let (end, scalar) = closest(Portable, &leaf, lanes, &ray, range);
+                    let (got, vector) = simd.vectorize(|| closest(simd, &leaf, lanes, &ray, range));
                     prop_assert_eq!(got.to_bits(), end.to_bits());
                     prop_assert_eq!(bits(vector), bits(scalar));
                 }

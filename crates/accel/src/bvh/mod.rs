@@ -245,7 +245,8 @@ fn closest_in_leaf<F: Filter>(
     if lanes == 0 {
         range.max
     } else {
-        closest_of_candidates(ClosestOfCandidates { filter, leaf: &leaves[first], first, lanes, ray, range, found })
+        let test = Candidates { leaf: &leaves[first], first, lanes, ray, range, found };
+        closest_of_candidates(ClosestOfCandidates { filter, test })
     }
 }
 
@@ -256,9 +257,9 @@ fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
     test.filter.exact(test)
 }
 
-/// The arguments of [`closest_of_candidates`].
-struct ClosestOfCandidates<'a, F> {
-    filter: F,
+/// A closest-hit test of a leaf's candidates: the candidate `lanes` of `leaf` (leaf number `first`),
+/// the ray, its range, and the closest hit so far with its leaf and candidate bit.
+struct Candidates<'a> {
     leaf: &'a Leaf,
     first: usize,
     lanes: u32,
@@ -267,35 +268,43 @@ struct ClosestOfCandidates<'a, F> {
     found: &'a mut Option<(TriangleHit, u32, u32)>,
 }
 
-impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
-    type Output = f32;
-
+impl Candidates<'_> {
+    /// Decides candidate `bit` by the scalar watertight test within `range`, keeping a hit in `found`
+    /// and narrowing `range` to it.
     #[inline(always)]
-    fn run(self) -> f32 {
-        let Self { filter, leaf, first, lanes, ray, range, found } = self;
-        filter.closest_of_candidates(leaf, first, lanes, ray, range, found)
+    fn decide(&mut self, bit: u32, range: &mut Interval) {
+        if let Some(h) = raylume_intersect::watertight_decide(&self.leaf.triangle(bit), self.ray, *range) {
+            *range = range.with_max(h.t);
+            *self.found = Some((h, self.first as u32, bit));
+        }
     }
 }
 
 /// [`Filter::closest_of_candidates`] by the scalar watertight test of each candidate in turn.
 #[inline(always)]
-fn closest_of_candidates_scalar(
-    leaf: &Leaf,
-    first: usize,
-    mut lanes: u32,
-    ray: &ShearedRay,
-    mut range: Interval,
-    found: &mut Option<(TriangleHit, u32, u32)>,
-) -> f32 {
+fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
+    let (mut lanes, mut range) = (test.lanes, test.range);
     while lanes != 0 {
         let bit = lanes.trailing_zeros();
         lanes &= lanes - 1;
-        if let Some(h) = raylume_intersect::watertight_decide(&leaf.triangle(bit), ray, range) {
-            range = range.with_max(h.t);
-            *found = Some((h, first as u32, bit));
-        }
+        test.decide(bit, &mut range);
     }
     range.max
+}
+
+/// [`closest_of_candidates`]' test and the filter that compiles it.
+struct ClosestOfCandidates<'a, F> {
+    filter: F,
+    test: Candidates<'a>,
+}
+
+impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
+    type Output = f32;
+
+    #[inline(always)]
+    fn run(self) -> f32 {
+        self.filter.closest_of_candidates(self.test)
+    }
 }
 
 /// Whether any triangle among the candidate `lanes` of `leaf` is hit within `range`, by the scalar test.

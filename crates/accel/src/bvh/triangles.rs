@@ -6,7 +6,9 @@
 
 use glam::Vec4;
 use raylume_geometry::{Interval, Triangle, Vec3A};
-use raylume_intersect::{ShearedRay, TriangleHit};
+use raylume_intersect::ShearedRay;
+
+use super::Candidates;
 
 /// Triangles per packet.
 pub(super) const LANES: usize = 4;
@@ -135,20 +137,12 @@ pub(super) trait Filter: Copy {
         super::occluded_in_leaf(self, leaf, self.leaf_candidates(leaf, count, ray), ray, range)
     }
 
-    /// The closest hit within `range` among the candidate `lanes` of `leaf` (leaf number `first`),
-    /// kept in `found` with its leaf and candidate bit; returns the new end of the range. The answer of
-    /// the scalar watertight test of each candidate in turn, the range narrowing at each hit.
+    /// The closest hit of `test`'s candidates within its range, kept in its `found`; returns the new
+    /// end of the range. The answer of the scalar watertight test of each candidate in turn, the range
+    /// narrowing at each hit.
     #[inline(always)]
-    fn closest_of_candidates(
-        self,
-        leaf: &Leaf,
-        first: usize,
-        lanes: u32,
-        ray: &ShearedRay,
-        range: Interval,
-        found: &mut Option<(TriangleHit, u32, u32)>,
-    ) -> f32 {
-        super::closest_of_candidates_scalar(leaf, first, lanes, ray, range, found)
+    fn closest_of_candidates(self, test: Candidates) -> f32 {
+        super::closest_of_candidates_scalar(test)
     }
 
     /// Runs a leaf's exact test compiled with the filter's target features (the test's function is not
