@@ -2,12 +2,13 @@
 //! that miss it (both engines agree on which), each subset timed on both engines (best of seven
 //! passes, single-threaded), with raylume's nodes visited and triangles tested per ray by its
 //! closest-hit and its occlusion queries. Camera rays that miss are mostly per-ray set-up; rays that
-//! hit are mostly traversal and triangle tests.
+//! hit are mostly traversal and triangle tests. A third row per ray kind, `all`, times every ray in the
+//! set's own order (the camera's row by row), as the comparison bench does: hits and misses interleaved.
 //!
 //! `cargo bench -p raylume-compare --bench hit_miss [-- MESH...]` (default: all three bunny meshes;
 //! `RAYLUME_COMPARE_SIDE` sets the view's side, 512 by default).
 //!
-//! `RAYLUME_SPLIT_ONCE=camera-hit` (or `camera-miss`, `random-hit`, `random-miss`) instead runs
+//! `RAYLUME_SPLIT_ONCE=camera-hit` (or `camera-miss`, `camera-all`, `random-hit`, ...) instead runs
 //! raylume's closest-hit and occlusion queries once over that subset of the first mesh and exits: a
 //! fixed workload for `valgrind --tool=callgrind --branch-sim=yes`, whose instruction and
 //! mispredicted-branch counts do not move with the machine's load (`RAYLUME_SPLIT_QUERY=closest` or
@@ -65,7 +66,7 @@ fn main() {
         for (kind, rays) in [("camera", &w.camera), ("random", &w.random)] {
             // Split by obvhs's answer, so that raylume runs only the measured passes.
             let (hit, miss): (Vec<Ray>, Vec<Ray>) = rays.iter().partition(|r| theirs.closest(&to_obvhs(r)).is_some());
-            for (subset, set) in [("hit", &hit), ("miss", &miss)] {
+            for (subset, set) in [("hit", &hit), ("miss", &miss), ("all", rays)] {
                 let name = format!("{kind}-{subset}");
                 if let Some(once) = &once {
                     if *once == name {
