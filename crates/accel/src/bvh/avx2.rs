@@ -13,7 +13,7 @@ use std::arch::x86_64::{
 };
 
 use super::stream::{Leaves, PacketQuery};
-use super::triangles::{Exact, Filter, Leaf};
+use super::triangles::{Exact, Filter, Leaf, set_bits};
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree};
 use super::{Candidates, Triangles};
 use crate::Tally;
@@ -525,10 +525,7 @@ fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
     }
     let t: [f32; 8] = pulp::cast(t);
     let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
-    let mut todo = hit | open;
-    while todo != 0 {
-        let bit = todo.trailing_zeros();
-        todo &= todo - 1;
+    for bit in set_bits(hit | open) {
         let i = bit as usize;
         if open & (1 << bit) != 0 {
             test.decide(bit, &mut range);

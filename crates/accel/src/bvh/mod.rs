@@ -17,7 +17,7 @@ use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit, has_unit_normal};
 use stream::PacketQuery;
-use triangles::{Exact, Filter, LANES, Leaf, Portable};
+use triangles::{Exact, Filter, LANES, Leaf, Portable, set_bits};
 use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
@@ -283,10 +283,8 @@ impl Candidates<'_> {
 /// [`Filter::closest_of_candidates`] by the scalar watertight test of each candidate in turn.
 #[inline(always)]
 fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
-    let (mut lanes, mut range) = (test.lanes, test.range);
-    while lanes != 0 {
-        let bit = lanes.trailing_zeros();
-        lanes &= lanes - 1;
+    let mut range = test.range;
+    for bit in set_bits(test.lanes) {
         test.decide(bit, &mut range);
     }
     range.max
@@ -332,15 +330,8 @@ impl Exact for AnyCandidateHit<'_> {
 
     #[inline(always)]
     fn run(self) -> bool {
-        let Self { leaf, mut lanes, ray, range } = self;
-        while lanes != 0 {
-            let bit = lanes.trailing_zeros();
-            lanes &= lanes - 1;
-            if raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range) {
-                return true;
-            }
-        }
-        false
+        let Self { leaf, lanes, ray, range } = self;
+        set_bits(lanes).any(|bit| raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range))
     }
 }
 

@@ -8,7 +8,7 @@ use raylume_geometry::{Interval, Ray, Vec3A};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
 use super::closest_in_leaf;
-use super::triangles::{Filter, Leaf};
+use super::triangles::{Filter, Leaf, set_bits};
 use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals};
 
 /// Rays per packet.
@@ -116,10 +116,8 @@ impl<'a> Rays<'a> {
         let mut largest = Vec4::NEG_INFINITY;
         for g in 0..self.rays.len().div_ceil(4) {
             let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
-            let mut lanes = self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends);
-            while lanes != 0 {
-                let i = 4 * g + lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
+            for lane in set_bits(self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends)) {
+                let i = 4 * g + lane as usize;
                 let ray = &self.rays[i];
                 self.t_max[i] = match self.sheared[i].get_or_insert_with(|| ShearedRay::new(ray)) {
                     Some(sheared) => test.test(i, first, count, sheared, self.t_max[i]),
