@@ -347,6 +347,11 @@ impl NodeTest<8> for BoxRay8 {
         ))
     }
 
+    #[inline(always)]
+    fn prefetch(&self, node: &WideNode<8>) {
+        prefetch(self.simd, node);
+    }
+
     eight_wide_pushes!();
 }
 
@@ -567,7 +572,21 @@ fn high(avx: pulp::core_arch::x86::Avx, x: __m256) -> __m128 {
     avx._mm256_extractf128_ps::<1>(x)
 }
 
+/// Starts loading every cache line of `item` into all levels of the cache.
+#[inline(always)]
+fn prefetch<I>(simd: V3, item: &I) {
+    let p: *const i8 = (item as *const I).cast();
+    for offset in (0..std::mem::size_of::<I>()).step_by(64) {
+        simd.sse._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(offset));
+    }
+}
+
 impl Filter for V3 {
+    #[inline(always)]
+    fn prefetch(self, leaf: &Leaf) {
+        prefetch(self, leaf);
+    }
+
     #[inline(always)]
     fn exact<E: Exact>(self, test: E) -> E::Output {
         self.vectorize(Compiled(test))

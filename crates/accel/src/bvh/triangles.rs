@@ -143,6 +143,10 @@ pub(super) trait Filter: Copy {
     /// The candidate triangles of a leaf holding `count`: bit `4 j + l` for lane `l` of packet `j`.
     fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32;
 
+    /// Starts loading `leaf` into the cache, where the filter can (none by default).
+    #[inline(always)]
+    fn prefetch(self, _leaf: &Leaf) {}
+
     /// Whether a triangle of a leaf holding `count` is hit within `range`: the answer of the scalar
     /// watertight test of its candidates.
     #[inline(always)]

@@ -96,6 +96,10 @@ pub(super) struct BoxRay {
 pub(super) trait NodeTest<const W: usize> {
     fn intersect(&self, node: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
+    /// Starts loading `node` into the cache, where the test can (none by default).
+    #[inline(always)]
+    fn prefetch(&self, _node: &WideNode<W>) {}
+
     /// Pushes the children of `node` in `mask` (not empty) but one onto `stack` from `sp`, and returns
     /// the one to go on with: the nearest, the others pushed farthest first. With `ANY`, the first in
     /// slot order, the others pushed unsorted: any hit ends the walk, and ordering them cost more than
@@ -317,6 +321,10 @@ const HIT_COUNT: [u8; 16] = {
 /// types whose method is always inlined, so that they are compiled with the walk's target features.
 pub(super) trait LeafTest<T> {
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32;
+
+    /// Starts loading the leaf's triangles into the cache, where the leaf test can (none by default).
+    #[inline(always)]
+    fn prefetch(&self, _leaf: u32) {}
 }
 
 impl<T, F: FnMut(u32, f32, &mut T) -> f32> LeafTest<T> for F {
@@ -349,6 +357,8 @@ pub(super) struct WideTree<const W: usize> {
     bounds: Aabb,
     /// Levels of inner nodes on the longest path.
     depth: usize,
+    /// Whether walks prefetch the next entry of their stack ([`WideTree::prefetch_when_larger`]).
+    prefetch: bool,
 }
 
 impl<const W: usize> WideTree<W> {
@@ -358,9 +368,17 @@ impl<const W: usize> WideTree<W> {
     pub fn collapse(bin: &[Node], mut leaf: impl FnMut(usize, usize, Aabb) -> u32) -> Self {
         let mut nodes = Vec::with_capacity(bin.len() / (W - 1) + 1);
         let root = collapse_node(bin, 0, &mut nodes, &mut leaf);
-        let mut tree = Self { nodes, root, bounds: bin[0].aabb(), depth: 0 };
+        let mut tree = Self { nodes, root, bounds: bin[0].aabb(), depth: 0, prefetch: false };
         tree.depth = tree.depth_below(root);
         tree
+    }
+
+    /// Makes walks prefetch the entry on top of their stack after each push (the child a walk goes on
+    /// with when the one it took ends) when the whole structure, `bytes` with the leaves, is larger than
+    /// `threshold`: the memory reads of the next subtree then overlap the walk of this one. Below it the
+    /// structure stays in the caches and the prefetch is only a cost.
+    pub fn prefetch_when_larger(&mut self, bytes: usize, threshold: usize) {
+        self.prefetch = bytes > threshold;
     }
 
     fn depth_below(&self, r: u32) -> usize {
@@ -434,6 +452,7 @@ impl<const W: usize> WideTree<W> {
         };
         let mut sp = 0;
         cur = ray.push::<ANY>(&self.nodes[cur as usize], near, mask, &mut stack, &mut sp);
+        self.prefetch_top(ray, leaf, &stack, sp);
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
@@ -441,6 +460,7 @@ impl<const W: usize> WideTree<W> {
                 let (near, mask) = ray.intersect(node, t_min, t_max);
                 if mask != 0 {
                     cur = ray.push::<ANY>(node, near, mask, &mut stack, &mut sp);
+                    self.prefetch_top(ray, leaf, &stack, sp);
                     continue;
                 }
             } else {
@@ -459,6 +479,19 @@ impl<const W: usize> WideTree<W> {
                     cur = stack.child[sp];
                     break;
                 }
+            }
+        }
+    }
+
+    /// Prefetches the node or leaf on top of the stack, if the tree prefetches.
+    #[inline(always)]
+    fn prefetch_top<T>(&self, ray: &impl NodeTest<W>, leaf: &impl LeafTest<T>, stack: &Stack, sp: usize) {
+        if self.prefetch && sp > 0 {
+            let top = stack.child[sp - 1];
+            if top & LEAF == 0 {
+                ray.prefetch(&self.nodes[top as usize]);
+            } else {
+                leaf.prefetch(top);
             }
         }
     }
