@@ -27,7 +27,7 @@ const MAX_LEAF: usize = 4;
 /// Largest leaf of triangles: two packets.
 const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 /// Size of the triangles' structure (nodes and leaves) above which walks prefetch the next subtree:
-/// measured, random rays on bunny_loop3 (13 MB) gain 6–17 %, and camera rays on bunny_loop2 (3.4 MB)
+/// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
 const PREFETCH_BYTES: usize = 8 << 20;
 
