@@ -26,7 +26,7 @@ use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, oc
 const MAX_LEAF: usize = 4;
 /// Largest leaf of triangles: two packets.
 const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
-/// Size of the triangles' structure (nodes and leaves) above which walks prefetch the next subtree:
+/// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
 const PREFETCH_BYTES: usize = 8 << 20;
@@ -48,6 +48,17 @@ enum TriangleTree {
     /// Eight-wide nodes and the token that proves the CPU runs [`BvhKernel::Avx2`].
     #[cfg(target_arch = "x86_64")]
     Avx2(pulp::x86::V3, WideTree<8>),
+}
+
+impl TriangleTree {
+    /// [`WideTree::prefetch_when_larger`] of the kernel's tree (the portable kernel has no prefetch).
+    fn prefetch_when_larger(&mut self, bytes: usize, threshold: usize) {
+        match self {
+            TriangleTree::Portable(tree) => tree.prefetch_when_larger(bytes, threshold),
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(_, tree) => tree.prefetch_when_larger(bytes, threshold),
+        }
+    }
 }
 
 impl Triangles {
@@ -76,6 +87,13 @@ impl Triangles {
             #[cfg(target_arch = "x86_64")]
             TriangleTree::Avx2(_, tree) => tree.bounds(),
         }
+    }
+
+    /// Bytes of the nodes, the leaves and their boxes.
+    fn bytes(&self) -> usize {
+        self.nodes().1
+            + std::mem::size_of_val(self.leaves.as_slice())
+            + std::mem::size_of_val(self.leaf_bounds.as_slice())
     }
 
     /// Nodes and their bytes.
@@ -213,15 +231,12 @@ impl<P: Intersect + Clone> Bvh<P> {
             };
             let tree = match simd {
                 #[cfg(target_arch = "x86_64")]
-                Some(simd) => {
-                    let mut tree = WideTree::collapse(&bin, leaf);
-                    let bytes = tree.bytes() + std::mem::size_of_val(leaves.as_slice());
-                    tree.prefetch_when_larger(bytes, PREFETCH_BYTES);
-                    TriangleTree::Avx2(simd, tree)
-                }
+                Some(simd) => TriangleTree::Avx2(simd, WideTree::collapse(&bin, leaf)),
                 _ => TriangleTree::Portable(WideTree::collapse(&bin, leaf)),
             };
-            Triangles { tree, leaves, leaf_bounds }
+            let mut triangles = Triangles { tree, leaves, leaf_bounds };
+            triangles.tree.prefetch_when_larger(triangles.bytes(), PREFETCH_BYTES);
+            triangles
         });
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
@@ -646,10 +661,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn stats(&self) -> AccelStats {
         let mut bytes = self.unbounded.len() * std::mem::size_of::<(P, u32)>();
         let mut primitives = self.unbounded.len();
-        if let Some(t @ Triangles { leaves, leaf_bounds, .. }) = &self.triangles {
-            bytes +=
-                t.nodes().1 + std::mem::size_of_val(leaves.as_slice()) + std::mem::size_of_val(leaf_bounds.as_slice());
-            primitives += leaves.iter().map(Leaf::len).sum::<usize>();
+        if let Some(t) = &self.triangles {
+            bytes += t.bytes();
+            primitives += t.leaves.iter().map(Leaf::len).sum::<usize>();
         }
         if let Some((tree, prims, ids)) = &self.others {
             bytes += tree.bytes() + std::mem::size_of_val(prims.as_slice()) + std::mem::size_of_val(ids.as_slice());
@@ -685,12 +699,8 @@ mod tests {
         for kernel in [BvhKernel::Portable, BvhKernel::best()] {
             let plain = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
             let mut prefetching = plain.clone();
-            let Some(Triangles { tree, .. }) = prefetching.triangles.as_mut() else { panic!("triangles") };
-            match tree {
-                TriangleTree::Portable(tree) => tree.prefetch_when_larger(1, 0),
-                #[cfg(target_arch = "x86_64")]
-                TriangleTree::Avx2(_, tree) => tree.prefetch_when_larger(1, 0),
-            }
+            let Some(triangles) = prefetching.triangles.as_mut() else { panic!("triangles") };
+            triangles.tree.prefetch_when_larger(1, 0);
             let mut hits = 0;
             for ray in &rays {
                 let (a, b) =
