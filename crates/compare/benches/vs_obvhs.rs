@@ -8,6 +8,13 @@
 //! alternating passes (raylume, obvhs, Embree, raylume, ...: each pass all rays of a set once) and
 //! prints the engines' median passes as a second, paired table.
 //!
+//! Every engine is timed from the same input, raylume's `Ray` (origin and direction), and makes what
+//! it derives from a ray inside the timed loop, as a caller of its single-ray query does: raylume its
+//! reciprocals and watertight frame in the query, Embree its `RTCRayHit` and what `rtcIntersect1`
+//! derives, obvhs its `Ray`, whose constructor computes the reciprocal directions. The paired table
+//! also times obvhs on its `Ray`s made before the timer starts (the protocol of the sessions before
+//! the tenth), so that both figures stay comparable.
+//!
 //! `cargo bench -p raylume-compare` (all meshes; a criterion filter such as `-- bunny/` picks some).
 //! `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets for a quick look;
 //! `RAYLUME_COMPARE_PAIRED=0` leaves out the paired passes.
@@ -58,18 +65,20 @@ struct Note {
     raylume_bytes: usize,
     obvhs_bytes: usize,
     agreement: [String; 2],
-    /// Query, ray kind and each engine's Mrays/s (raylume, obvhs, Embree if measured) from the
-    /// paired passes.
-    paired: Vec<(&'static str, &'static str, [Option<f64>; 3])>,
+    /// Query, ray kind and each engine's Mrays/s (raylume, obvhs, Embree if measured, obvhs on rays
+    /// made before the timer) from the paired passes.
+    paired: Vec<(&'static str, &'static str, [Option<f64>; ENGINES])>,
 }
 
 /// Passes per engine in the paired measurement.
 const PAIRED_PASSES: usize = 7;
+/// Engines of the paired measurement: raylume, obvhs, Embree, obvhs on rays made before the timer.
+const ENGINES: usize = 4;
 
 /// Each engine's Mrays/s over `n` rays from alternating passes (the median pass of each); `None`
 /// for an engine not given.
-fn paired(n: usize, mut engines: [Option<Box<dyn FnMut() -> usize + '_>>; 3]) -> [Option<f64>; 3] {
-    let mut times: [Vec<f64>; 3] = Default::default();
+fn paired(n: usize, mut engines: [Option<Box<dyn FnMut() -> usize + '_>>; ENGINES]) -> [Option<f64>; ENGINES] {
+    let mut times: [Vec<f64>; ENGINES] = Default::default();
     for _ in 0..PAIRED_PASSES {
         for (engine, times) in engines.iter_mut().zip(&mut times) {
             if let Some(pass) = engine {
@@ -111,7 +120,6 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         // The same rays through raylume's batch queries, the camera's in tiles of 8x8 (obvhs has no
         // batch query: its rows take the rays one by one, in the same order).
         let tiles = if kind == "camera" { raylume_scene::rays::in_tiles(rays, w.side, 8) } else { rays.clone() };
-        let otiles: Vec<ORay> = tiles.iter().map(to_obvhs).collect();
         let batch = format!("{kind}-batch");
         let mut group = c.benchmark_group(format!("{}/closest", w.name));
         group.throughput(Throughput::Elements(rays.len() as u64));
@@ -122,8 +130,8 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
                 hits.iter().filter(|h| h.is_some()).count()
             })
         });
-        group.bench_with_input(BenchmarkId::new("obvhs", &batch), &otiles, |b, rays| {
-            b.iter(|| rays.iter().filter(|r| theirs.closest(r).is_some()).count())
+        group.bench_with_input(BenchmarkId::new("obvhs", &batch), &tiles, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.closest(&to_obvhs(r)).is_some()).count())
         });
         #[cfg(feature = "embree")]
         {
@@ -142,8 +150,8 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
                 occluded.iter().filter(|&&o| o).count()
             })
         });
-        group.bench_with_input(BenchmarkId::new("obvhs", &batch), &otiles, |b, rays| {
-            b.iter(|| rays.iter().filter(|r| theirs.occluded(r)).count())
+        group.bench_with_input(BenchmarkId::new("obvhs", &batch), &tiles, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.occluded(&to_obvhs(r))).count())
         });
         #[cfg(feature = "embree")]
         {
@@ -165,8 +173,8 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         group.bench_with_input(BenchmarkId::new("raylume", kind), rays, |b, rays| {
             b.iter(|| rays.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count())
         });
-        group.bench_with_input(BenchmarkId::new("obvhs", kind), &orays, |b, rays| {
-            b.iter(|| rays.iter().filter(|r| theirs.closest(r).is_some()).count())
+        group.bench_with_input(BenchmarkId::new("obvhs", kind), rays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.closest(&to_obvhs(r)).is_some()).count())
         });
         #[cfg(feature = "embree")]
         group.bench_with_input(BenchmarkId::new("embree", kind), rays, |b, rays| {
@@ -178,8 +186,8 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
         group.bench_with_input(BenchmarkId::new("raylume", kind), rays, |b, rays| {
             b.iter(|| rays.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count())
         });
-        group.bench_with_input(BenchmarkId::new("obvhs", kind), &orays, |b, rays| {
-            b.iter(|| rays.iter().filter(|r| theirs.occluded(r)).count())
+        group.bench_with_input(BenchmarkId::new("obvhs", kind), rays, |b, rays| {
+            b.iter(|| rays.iter().filter(|r| theirs.occluded(&to_obvhs(r))).count())
         });
         #[cfg(feature = "embree")]
         group.bench_with_input(BenchmarkId::new("embree", kind), rays, |b, rays| {
@@ -202,16 +210,18 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
                     None
                 }
             };
-            let closest: [Pass; 3] = [
+            let closest: [Pass; ENGINES] = [
                 Some(Box::new(|| rays.iter().filter(|r| ours.closest_hit(r, Interval::POSITIVE).is_some()).count())),
-                Some(Box::new(|| orays.iter().filter(|r| theirs.closest(r).is_some()).count())),
+                Some(Box::new(|| rays.iter().filter(|r| theirs.closest(&to_obvhs(r)).is_some()).count())),
                 embree_pass(true),
+                Some(Box::new(|| orays.iter().filter(|r| theirs.closest(r).is_some()).count())),
             ];
             paired_rows.push(("closest", kind, paired(rays.len(), closest)));
-            let occluded: [Pass; 3] = [
+            let occluded: [Pass; ENGINES] = [
                 Some(Box::new(|| rays.iter().filter(|r| ours.occluded(r, f32::INFINITY)).count())),
-                Some(Box::new(|| orays.iter().filter(|r| theirs.occluded(r)).count())),
+                Some(Box::new(|| rays.iter().filter(|r| theirs.occluded(&to_obvhs(r))).count())),
                 embree_pass(false),
+                Some(Box::new(|| orays.iter().filter(|r| theirs.occluded(r)).count())),
             ];
             paired_rows.push(("occluded", kind, paired(rays.len(), occluded)));
         }
@@ -295,14 +305,18 @@ fn print_table(notes: &[Note], since: SystemTime) {
         println!(
             "\nPaired: median of {PAIRED_PASSES} alternating passes per engine (single-ray queries, one thread).\n"
         );
-        println!("| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio | Embree Mrays/s | raylume/Embree |");
-        println!("|---|---|---|---|---|---|---|---|");
+        println!(
+            "| mesh | query | rays | raylume Mrays/s | obvhs Mrays/s | ratio | Embree Mrays/s | raylume/Embree | \
+             obvhs, rays made before the timer | ratio |"
+        );
+        println!("|---|---|---|---|---|---|---|---|---|---|");
     }
     for n in notes {
-        for (query, kind, [ours, theirs, embree]) in &n.paired {
+        for (query, kind, [ours, theirs, embree, prepared]) in &n.paired {
             let (Some(a), Some(b)) = (ours, theirs) else { continue };
             let embree = embree.map_or("- | -".to_owned(), |e| format!("{e:.2} | {:.2}", a / e));
-            println!("| {} | {query} | {kind} | {a:.2} | {b:.2} | {:.2} | {embree} |", n.mesh, a / b);
+            let prepared = prepared.map_or("- | -".to_owned(), |p| format!("{p:.2} | {:.2}", a / p));
+            println!("| {} | {query} | {kind} | {a:.2} | {b:.2} | {:.2} | {embree} | {prepared} |", n.mesh, a / b);
         }
     }
     println!("\n| mesh | triangles | raylume build ms | obvhs build ms | ratio | raylume B/tri | obvhs B/tri |");
