@@ -12,8 +12,8 @@
 //! it derives from a ray inside the timed loop, as a caller of its single-ray query does: raylume its
 //! reciprocals and watertight frame in the query, Embree its `RTCRayHit` and what `rtcIntersect1`
 //! derives, obvhs its `Ray`, whose constructor computes the reciprocal directions. The paired table
-//! also times obvhs on its `Ray`s made before the timer starts (the protocol of the sessions before
-//! the tenth), so that both figures stay comparable.
+//! also times obvhs on its `Ray`s made before the timer starts, the bench's earlier protocol
+//! (docs/PERFORMANCE.md), so that figures taken before and after the change stay comparable.
 //!
 //! `cargo bench -p raylume-compare` (all meshes; a criterion filter such as `-- bunny/` picks some).
 //! `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets for a quick look;
