@@ -13,8 +13,8 @@ use std::arch::x86_64::{
 };
 
 use super::stream::{Leaves, PacketQuery};
-use super::triangles::{Exact, Filter, Leaf, set_bits};
-use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree};
+use super::triangles::{Exact, Filter, Leaf};
+use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
 use super::{Candidates, Triangles};
 use crate::Tally;
 

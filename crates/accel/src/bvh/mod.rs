@@ -17,8 +17,8 @@ use build::{BuildItem, build_binary};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit, has_unit_normal};
 use stream::PacketQuery;
-use triangles::{Exact, Filter, LANES, Leaf, Portable, set_bits};
-use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use triangles::{Exact, Filter, LANES, Leaf, Portable};
+use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref, set_bits};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 

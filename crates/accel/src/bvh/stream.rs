@@ -8,8 +8,8 @@ use raylume_geometry::{Interval, Ray, Vec3A};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
 use super::closest_in_leaf;
-use super::triangles::{Filter, Leaf, set_bits};
-use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals};
+use super::triangles::{Filter, Leaf};
+use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals, set_bits};
 
 /// Rays per packet.
 pub(super) const PACKET: usize = 64;

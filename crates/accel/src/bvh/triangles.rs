@@ -98,19 +98,6 @@ impl Leaf {
     }
 }
 
-/// The bits set in `mask`, lowest first: the lanes of a candidate or hit mask, in the order the scalar
-/// loops take them.
-#[inline(always)]
-pub(super) fn set_bits(mut mask: u32) -> impl Iterator<Item = u32> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let bit = mask.trailing_zeros();
-            mask &= mask - 1;
-            bit
-        })
-    })
-}
-
 /// The mask of the first `count` lanes that the watertight test may accept: it rejects a triangle
 /// when its three edge functions are non-zero and of mixed signs, and these are computed with the very
 /// operations of [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the

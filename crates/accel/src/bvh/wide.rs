@@ -115,11 +115,8 @@ pub(super) trait NodeTest<const W: usize> {
     ) -> u32 {
         if ANY {
             let first = mask.trailing_zeros() as usize;
-            let mut rest = mask & (mask - 1);
-            while rest != 0 {
-                let slot = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                (stack.child[*sp], stack.near[*sp]) = (node.child[slot], near[slot]);
+            for slot in set_bits(mask & (mask - 1)) {
+                (stack.child[*sp], stack.near[*sp]) = (node.child[slot as usize], near[slot as usize]);
                 *sp += 1;
             }
             return node.child[first];
@@ -339,6 +336,19 @@ impl<T, F: FnMut(u32, f32, &mut T) -> f32> LeafTest<T> for F {
 pub(super) struct Stack<'a> {
     pub child: &'a mut [u32],
     pub near: &'a mut [f32],
+}
+
+/// The bits set in `mask`, lowest first: the children of a node's hit mask, or the lanes of a leaf's
+/// candidate or hit mask in the order the scalar loops take them.
+#[inline(always)]
+pub(super) fn set_bits(mut mask: u32) -> impl Iterator<Item = u32> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let bit = mask.trailing_zeros();
+            mask &= mask - 1;
+            bit
+        })
+    })
 }
 
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
