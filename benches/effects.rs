@@ -10,14 +10,14 @@ use raylume::prelude::*;
 
 fn scene(name: &str) -> Option<Scene> {
     if name == "default" {
-        return Some(p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap().0);
+        return Some(p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap().scene);
     }
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes").join(format!("{name}.p3f"));
     if !path.is_file() {
         eprintln!("skipped {name}: ../shared is absent");
         return None;
     }
-    Some(p3f::load(&path, &Default::default()).unwrap().0)
+    Some(p3f::load(&path, &Default::default()).unwrap().scene)
 }
 
 fn plain(c: &mut Criterion) {
@@ -26,12 +26,8 @@ fn plain(c: &mut Criterion) {
     group.sample_size(30);
     for name in ["default", "balls_low", "balls_medium"] {
         let Some(scene) = scene(name) else { continue };
-        let options = RenderOptions {
-            settings: RenderSettings { spp: 1, ..RenderSettings::default() },
-            resolution: Some((160, 120)),
-            use_env: false,
-            ..RenderOptions::default()
-        };
+        let options =
+            RenderOptions { spp: Some(1), resolution: Some((160, 120)), use_env: false, ..RenderOptions::default() };
         group.bench_function(name, |b| b.iter(|| pool.install(|| scene.render(&options, &|| {}).unwrap())));
     }
     group.finish();
@@ -45,14 +41,10 @@ fn effects(c: &mut Criterion) {
     group.sample_size(20);
     let load = |name: &str| {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes").join(format!("{name}.p3f"));
-        p3f::load(&path, &Default::default()).unwrap().0
+        p3f::load(&path, &Default::default()).unwrap().scene
     };
-    let base = RenderOptions {
-        settings: RenderSettings { spp: 1, ..RenderSettings::default() },
-        resolution: Some((160, 100)),
-        ..RenderOptions::default()
-    };
-    let with_spp = |spp| RenderOptions { settings: RenderSettings { spp, ..base.settings }, ..base.clone() };
+    let base = RenderOptions { spp: Some(1), resolution: Some((160, 100)), ..RenderOptions::default() };
+    let with_spp = |spp| RenderOptions { spp: Some(spp), ..base.clone() };
     let cases: Vec<(&str, &str, RenderOptions, RenderOptions)> = vec![
         ("antialiasing", "antialiasing_16spp", with_spp(16), base.clone()),
         (

@@ -21,8 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .sphere(Vec3A::new(0.0, 1.0, 0.0), 1.0)
         .build()?;
-    let options =
-        RenderOptions { settings: RenderSettings { spp: 4, ..RenderSettings::default() }, ..RenderOptions::default() };
+    let options = RenderOptions { spp: Some(4), ..RenderOptions::default() };
     let out = scene.render(&options, &|| {})?;
     let path = std::env::args().nth(1).unwrap_or_else(|| "embed.png".to_owned());
     out.film.write(std::path::Path::new(&path))?;

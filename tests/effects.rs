@@ -158,7 +158,7 @@ fn edge_blur_radius(z: f32, focus_ratio: f32, aperture: f32) -> (f64, f64) {
         view,
         background: Vec3::ZERO,
         env: None,
-        lights: vec![Light { position: Vec3A::new(0.0, 0.0, 1e5), color: Vec3::ONE, size: 0.0 }],
+        lights: vec![Light::point(Vec3A::new(0.0, 0.0, 1e5), Vec3::ONE)],
         materials: vec![Phong { diffuse: Vec3::ONE, kd: 1.0, ..Phong::default() }],
         objects: vec![Object {
             material: 0,
@@ -172,6 +172,7 @@ fn edge_blur_radius(z: f32, focus_ratio: f32, aperture: f32) -> (f64, f64) {
         accel_hint: None,
         spp_hint: None,
         shutter: None,
+        base_dir: None,
     };
     let options =
         RenderOptions { settings: RenderSettings { spp: 256, seed: 3, ..Default::default() }, ..Default::default() };

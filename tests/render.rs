@@ -95,9 +95,10 @@ fn index_matched_glass_is_invisible() {
 /// The same seed gives the same bytes on 1 and 2 threads; another seed gives other bytes.
 #[test]
 fn images_are_identical_whatever_the_thread_count() {
-    let (scene, _) = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap();
+    let scene = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
     let options = |seed| RenderOptions {
-        settings: RenderSettings { spp: 4, seed, ..RenderSettings::default() },
+        spp: Some(4),
+        settings: RenderSettings { seed, ..RenderSettings::default() },
         resolution: Some((96, 60)),
         ..RenderOptions::default()
     };
@@ -113,9 +114,10 @@ fn images_are_identical_whatever_the_thread_count() {
 /// Every accelerator renders the same image as the brute-force list.
 #[test]
 fn accelerators_render_identical_images() {
-    let (scene, _) = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap();
+    let scene = p3f::parse(raylume::scene::DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
     let render = |accel| {
-        let o = RenderOptions { accel: Some(accel), resolution: Some((80, 50)), ..RenderOptions::default() };
+        let o =
+            RenderOptions { accel: Some(accel), spp: Some(1), resolution: Some((80, 50)), ..RenderOptions::default() };
         scene.render(&o, &|| {}).unwrap().film
     };
     let reference = render(AccelKind::None);
@@ -134,7 +136,7 @@ fn every_course_scene_renders() {
         if path.extension().is_none_or(|e| e != "p3f") {
             continue;
         }
-        let (scene, _) = p3f::load(&path, &Default::default()).unwrap();
+        let scene = p3f::load(&path, &Default::default()).unwrap().scene;
         let options = RenderOptions {
             resolution: Some((48, 36)),
             env_dirs: vec![path.parent().unwrap().to_path_buf(), path.parent().unwrap().join("..")],
@@ -153,7 +155,7 @@ fn every_course_scene_renders() {
 #[test]
 fn balls_low_matches_the_course_reference() {
     let Some(shared) = shared() else { return };
-    let (scene, _) = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap();
+    let scene = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap().scene;
     let reference = image::open(shared.join("refimages/balls_low.png")).unwrap().into_rgb8();
     let ref_values: Vec<f32> = reference.as_raw().iter().map(|&v| v as f32 / 255.0).collect();
     let error = |specular_scale| {

@@ -43,26 +43,20 @@ pub struct ConvergeArgs {
 }
 
 pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
-    let (scene, env_dirs) = match &args.scene {
-        Some(path) => {
-            let (scene, _) = p3f::load(path, &p3f::LoadOptions::default()).map_err(bad_input)?;
-            let dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
-            (scene, vec![dir.clone(), dir.join("..")])
-        }
-        None => (
-            p3f::parse(DEFAULT_SCENE, "<default scene>", &p3f::LoadOptions::default()).map_err(bad_input)?.0,
-            Vec::new(),
-        ),
-    };
+    let loaded = match &args.scene {
+        Some(path) => p3f::load(path, &p3f::LoadOptions::default()),
+        None => p3f::parse(DEFAULT_SCENE, "<default scene>", &p3f::LoadOptions::default()),
+    }
+    .map_err(crate::load_failure)?;
+    for w in &loaded.warnings {
+        eprintln!("{w}");
+    }
+    let scene = loaded.scene;
     if args.spp_list.is_empty() || args.spp_list.contains(&0) || args.reference_spp == 0 {
         return Err(bad_input("sample counts must be at least 1"));
     }
-    let base = RenderOptions {
-        resolution: args.width.zip(args.height),
-        env_dirs,
-        use_env: !args.no_env,
-        ..RenderOptions::default()
-    };
+    let base =
+        RenderOptions { resolution: args.width.zip(args.height), use_env: !args.no_env, ..RenderOptions::default() };
     std::fs::create_dir_all(&args.output)
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", args.output.display()) })?;
     let render = |spp: u32, seed: u64, sampler: SamplerKind| {

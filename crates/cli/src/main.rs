@@ -223,60 +223,64 @@ fn main() -> ExitCode {
     }
 }
 
+/// A scene that did not load: the warnings found before the error are printed first.
+fn load_failure(e: raylume_scene::SceneError) -> Failure {
+    for w in e.warnings() {
+        eprintln!("{w}");
+    }
+    bad_input(e)
+}
+
 fn render(args: RenderArgs) -> Result<(), Failure> {
-    let options = p3f::LoadOptions { strict: args.strict, ..Default::default() };
-    let (scene, warnings, mut env_dirs) = match (&args.scene, &args.mesh) {
+    let options = p3f::LoadOptions { strict: args.strict, env_dirs: args.env_dir.clone(), ..Default::default() };
+    let (scene, warnings, summary) = match (&args.scene, &args.mesh) {
         (_, Some(mesh)) => {
             let mesh = raylume_scene::obj::load(mesh).map_err(bad_input)?;
-            (procedural::mesh_view(mesh, 512, 512), Vec::new(), Vec::new())
+            (procedural::mesh_view(mesh, 512, 512), Vec::new(), None)
         }
-        (scene, None) => match scene {
-            Some(path) => {
-                let (scene, warnings) = p3f::load(path, &options).map_err(bad_input)?;
-                let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-                let dir = if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir };
-                let mut dirs = vec![dir.clone()];
-                dirs.push(dir.join(".."));
-                (scene, warnings, dirs)
+        (scene, None) => {
+            let loaded = match scene {
+                Some(path) => p3f::load(path, &options),
+                None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options),
             }
-            None => {
-                let (scene, warnings) = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(bad_input)?;
-                (scene, warnings, vec![PathBuf::from(".")])
-            }
-        },
+            .map_err(load_failure)?;
+            let summary = scene.as_ref().map(|path| format!("{}: {}", path.display(), loaded.summary()));
+            (loaded.scene, loaded.warnings, summary)
+        }
     };
     for w in &warnings {
         eprintln!("{w}");
     }
-    env_dirs.extend(args.env_dir.iter().cloned());
-    let spp = args.spp.or(scene.spp_hint).unwrap_or(1);
-    let settings = RenderSettings {
+    if let Some(summary) = summary {
+        eprintln!("raylume: {summary}");
+    }
+    let mut settings = RenderSettings {
         max_depth: args.depth,
-        spp,
         seed: args.seed,
         fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
         light_grid: args.light_grid.clamp(1, 64),
         crop: args.crop.as_ref().map(|c| [c[0], c[1], c[2], c[3]]),
+        ..RenderSettings::default()
     };
     if let Some([x0, y0, x1, y1]) = settings.crop {
         if x0 >= x1 || y0 >= y1 {
             return Err(bad_input(format!("--crop {x0} {y0} {x1} {y1}: expected X0 < X1 and Y0 < Y1")));
         }
     }
-    let n = settings.strata();
-    if spp > 1 && n * n != spp {
-        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
+    // A cubemap the loader did not find was reported with its line: render with the background.
+    let mut use_env = !args.no_env;
+    if let Some(name) = &scene.env {
+        let dirs = p3f::env_search_dirs(scene.base_dir.as_deref(), &args.env_dir);
+        use_env &= raylume_scene::find_cubemap(name, &dirs).is_ok();
     }
-    if !args.specular_scale.is_finite() || args.specular_scale < 0.0 {
-        return Err(bad_input(format!("--specular-scale {}: expected a finite number >= 0", args.specular_scale)));
-    }
-    let accel = args.accel.map(accel_kind);
-    let render_options = RenderOptions {
+    let mut render_options = RenderOptions {
         settings,
-        accel,
+        spp: args.spp,
+        strict: args.strict,
+        accel: args.accel.map(accel_kind),
         resolution: args.width.zip(args.height),
-        env_dirs,
-        use_env: !args.no_env,
+        env_dirs: args.env_dir.clone(),
+        use_env,
         specular_scale: args.specular_scale,
         area_light_size: args.area_light,
         roughness: args.roughness,
@@ -286,6 +290,16 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
         sampler: args.sampler.into(),
     };
+    let spp = scene.samples_per_pixel(&render_options).map_err(bad_input)?;
+    settings.spp = spp;
+    render_options.settings.spp = spp;
+    let n = settings.strata();
+    if spp > 1 && n * n != spp {
+        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
+    }
+    if !args.specular_scale.is_finite() || args.specular_scale < 0.0 {
+        return Err(bad_input(format!("--specular-scale {}: expected a finite number >= 0", args.specular_scale)));
+    }
     if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= 1000.0) {
         return Err(bad_input(format!("--grid-k {}: expected a number in (0, 1000]", args.grid_k)));
     }
@@ -316,6 +330,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     };
     let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
     bar.finish_and_clear();
+    for w in &out.warnings {
+        eprintln!("{w}");
+    }
     out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     let s = out.stats;
     let total = out.build_seconds + out.render_seconds;
@@ -376,7 +393,7 @@ fn bench_command(args: BenchCli) -> Result<(), Failure> {
         let size: u32 = g[1].parse().map_err(|_| bad_input(format!("--gen {} {}: expected a size", g[0], g[1])))?;
         g[0].parse::<procedural::Generator>().and_then(|g| g.generate(size)).map_err(bad_input)?
     } else if let Some(path) = &args.scene {
-        p3f::load(path, &p3f::LoadOptions::default()).map_err(bad_input)?.0
+        p3f::load(path, &p3f::LoadOptions::default()).map_err(load_failure)?.scene
     } else {
         return Err(bad_input("give a SCENE, --mesh FILE or --gen NAME SIZE"));
     };

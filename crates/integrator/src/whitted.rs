@@ -70,23 +70,22 @@ impl<const SOFT: u8> Whitted<SOFT> {
             stats.shadow += 1;
             (!world.accel.occluded(&Ray::with_time(above, wi, time), dist)).then_some(wi)
         };
-        if SOFT == SoftShadows::NONE || light.size == 0.0 {
+        if SOFT == SoftShadows::NONE || !light.is_area() {
             return match unoccluded(light.position, stats) {
                 Some(wi) => light.color * material.local(ns, wo, wi),
                 None => Vec3::ZERO,
             };
         }
-        // A square in the world XY plane centred on the light.
-        let corner = light.position - Vec3A::new(light.size, light.size, 0.0) * 0.5;
+        let [e0, e1] = light.edges;
+        let corner = light.position - (e0 + e1) * 0.5;
         if SOFT == SoftShadows::GRID {
-            let g = self.grid;
+            let g = if light.grid > 0 { light.grid } else { self.grid };
             let mut sum = Vec3::ZERO;
             for i in 0..g {
                 for j in 0..g {
                     let u = (i as f32 + 0.5) / g as f32;
                     let v = (j as f32 + 0.5) / g as f32;
-                    let target = corner + Vec3A::new(u, v, 0.0) * light.size;
-                    if let Some(wi) = unoccluded(target, stats) {
+                    if let Some(wi) = unoccluded(corner + e0 * u + e1 * v, stats) {
                         sum += material.local(ns, wo, wi);
                     }
                 }
@@ -94,8 +93,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             light.color * sum / (g * g) as f32
         } else {
             let u = sample.light();
-            let target = corner + Vec3A::new(u.x, u.y, 0.0) * light.size;
-            match unoccluded(target, stats) {
+            match unoccluded(corner + e0 * u.x + e1 * u.y, stats) {
                 Some(wi) => light.color * material.local(ns, wo, wi),
                 None => Vec3::ZERO,
             }

@@ -2,7 +2,7 @@ use raylume_camera::View;
 use raylume_geometry::{Vec3, Vec3A};
 use raylume_material::Phong;
 
-use crate::{Light, Object, Scene, SceneError, Shape};
+use crate::{Light, LightShape, Object, Scene, SceneError, Shape};
 
 /// Builds a [`Scene`] in code, entity by entity, as a p3f file would: each object takes the material
 /// set last.
@@ -67,13 +67,20 @@ impl SceneBuilder {
 
     /// A point light.
     pub fn light(mut self, position: Vec3A, color: Vec3) -> Self {
-        self.lights.push(Light { position, color, size: 0.0 });
+        self.lights.push(Light::point(position, color));
         self
     }
 
     /// A square area light of side `size` in the world XY plane, centred on `position`.
     pub fn area_light(mut self, position: Vec3A, color: Vec3, size: f32) -> Self {
-        self.lights.push(Light { position, color, size });
+        self.lights.push(Light { position, color, shape: LightShape::Square(size) });
+        self
+    }
+
+    /// A parallelogram area light with a corner at `corner` and edges from it to `ends[0]` and
+    /// `ends[1]`.
+    pub fn quad_light(mut self, corner: Vec3A, ends: [Vec3A; 2], color: Vec3) -> Self {
+        self.lights.push(Light { position: corner, color, shape: LightShape::Parallelogram { ends, grid: 0 } });
         self
     }
 
@@ -157,6 +164,7 @@ impl SceneBuilder {
             accel_hint: self.accel_hint,
             spp_hint: self.spp_hint,
             shutter: self.shutter,
+            base_dir: None,
         })
     }
 }

@@ -5,24 +5,36 @@ use raylume_integrator::{Cubemap, CubemapFace};
 
 use crate::SceneError;
 
-/// Finds the cubemap folder `name` in the first of `search_dirs` that holds it and decodes its six
-/// faces (`right left top bottom front back`, `.jpg` or `.png`) to linear colours in [0, 1].
-pub fn load_cubemap(name: &str, search_dirs: &[PathBuf]) -> Result<Cubemap, SceneError> {
-    let err = |message: String| SceneError::Environment { name: name.to_owned(), message };
+/// Finds the cubemap folder `name` in the first of `search_dirs` that holds it with an image for
+/// each of its six faces; the error says where it looked and what was missing.
+pub fn find_cubemap(name: &str, search_dirs: &[PathBuf]) -> Result<PathBuf, String> {
     let dir = search_dirs.iter().map(|d| d.join(name)).find(|d| d.is_dir()).ok_or_else(|| {
         let looked: Vec<String> = search_dirs.iter().map(|d| d.display().to_string()).collect();
-        err(format!(
+        format!(
             "no folder '{name}' in {} (give --env-dir, or --no-env to use the background colour)",
             if looked.is_empty() { "any search folder".to_owned() } else { looked.join(", ") }
-        ))
+        )
     })?;
+    for face in Cubemap::FACE_NAMES {
+        face_path(&dir, face).ok_or_else(|| format!("{}: no image for the '{face}' face", dir.display()))?;
+    }
+    Ok(dir)
+}
+
+fn face_path(dir: &Path, face: &str) -> Option<PathBuf> {
+    ["jpg", "jpeg", "png"].iter().map(|ext| dir.join(format!("{face}.{ext}"))).find(|p| p.is_file())
+}
+
+/// Finds the cubemap folder `name` in the first of `search_dirs` that holds it ([`find_cubemap`])
+/// and decodes its six faces (`right left top bottom front back`, `.jpg` or `.png`) to linear
+/// colours in [0, 1].
+pub fn load_cubemap(name: &str, search_dirs: &[PathBuf]) -> Result<Cubemap, SceneError> {
+    let err = |message: String| SceneError::Environment { name: name.to_owned(), message };
+    let dir = find_cubemap(name, search_dirs).map_err(err)?;
     let mut faces = Vec::with_capacity(6);
     for face in Cubemap::FACE_NAMES {
-        let path = ["jpg", "jpeg", "png"]
-            .iter()
-            .map(|ext| dir.join(format!("{face}.{ext}")))
-            .find(|p| p.is_file())
-            .ok_or_else(|| err(format!("{}: no image for the '{face}' face", dir.display())))?;
+        let path =
+            face_path(&dir, face).ok_or_else(|| err(format!("{}: no image for the '{face}' face", dir.display())))?;
         faces.push(load_face(&path).map_err(|e| err(format!("{}: {e}", path.display())))?);
     }
     let faces: [CubemapFace; 6] = faces.try_into().expect("six faces");

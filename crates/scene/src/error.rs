@@ -14,6 +14,9 @@ pub enum SceneError {
         column: u32,
         /// What was found and what was expected.
         message: String,
+        /// What was skipped before the error, in file order: the reasons a user may need to see
+        /// first (printed before the error).
+        warnings: Vec<Warning>,
     },
     /// A file could not be read.
     #[error("{path}: {source}")]
@@ -36,12 +39,31 @@ pub enum SceneError {
     Invalid(String),
 }
 
+impl SceneError {
+    /// The warnings found before a syntax error (empty for other errors).
+    pub fn warnings(&self) -> &[Warning] {
+        match self {
+            SceneError::Syntax { warnings, .. } => warnings,
+            _ => &[],
+        }
+    }
+
+    /// The error with `earlier` warnings put before its own.
+    pub(crate) fn with_earlier_warnings(mut self, mut earlier: Vec<Warning>) -> Self {
+        if let SceneError::Syntax { warnings, .. } = &mut self {
+            earlier.append(warnings);
+            *warnings = earlier;
+        }
+        self
+    }
+}
+
 /// Something in a scene file that was skipped (an error under `--strict`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Warning {
     /// The file name.
     pub file: String,
-    /// Line, from 1.
+    /// Line, from 1 (0: the warning is about no line of a file).
     pub line: u32,
     /// Column, from 1.
     pub column: u32,
@@ -51,6 +73,10 @@ pub struct Warning {
 
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}:{}:{}: warning: {}", self.file, self.line, self.column, self.message)
+        match (self.line, self.file.is_empty()) {
+            (0, true) => write!(f, "warning: {}", self.message),
+            (0, false) => write!(f, "{}: warning: {}", self.file, self.message),
+            _ => write!(f, "{}:{}:{}: warning: {}", self.file, self.line, self.column, self.message),
+        }
     }
 }

@@ -14,8 +14,8 @@
 //!     .unwrap();
 //! // Written to p3f and read back, it is the same scene.
 //! let text = scene.to_p3f();
-//! let (again, _warnings) = p3f::parse(&text, "roundtrip.p3f", &p3f::LoadOptions::default()).unwrap();
-//! assert_eq!(again, scene);
+//! let again = p3f::parse(&text, "roundtrip.p3f", &p3f::LoadOptions::default()).unwrap();
+//! assert_eq!(again.scene, scene);
 //! ```
 
 mod builder;
@@ -24,15 +24,17 @@ mod error;
 mod model;
 pub mod obj;
 pub mod p3f;
+mod polygon;
 pub mod procedural;
 pub mod rays;
 mod render;
 mod writer;
 
 pub use builder::SceneBuilder;
-pub use env::load_cubemap;
+pub use env::{find_cubemap, load_cubemap};
 pub use error::{SceneError, Warning};
-pub use model::{Light, Object, Scene, Shape};
+pub use model::{Light, LightShape, Object, Scene, Shape};
+pub use polygon::triangulate;
 pub use render::{Features, Primitives, Progress, RenderOptions, RenderOutput, SamplerKind};
 
 /// The embedded default scene (p3f text), rendered when the CLI is given no scene.

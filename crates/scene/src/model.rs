@@ -27,18 +27,63 @@ pub struct Scene {
     /// The camera's shutter interval (raylume's `shutter t0 t1` tag); by default the moving spheres'
     /// time span.
     pub shutter: Option<(f32, f32)>,
+    /// The folder the scene's relative names (its `env` cubemap, `obj` meshes) are looked up in
+    /// first, then its parent: the scene file's folder when it was read by [`crate::p3f::load`].
+    pub base_dir: Option<std::path::PathBuf>,
 }
 
-/// A light: a point, or a square area light of side `size` in the world XY plane centred on
-/// `position`.
+/// A light: a point, or an area light whose [`LightShape`] starts at `position`.
+///
+/// ```
+/// use raylume_scene::{Light, LightShape};
+/// use raylume_geometry::{Vec3, Vec3A};
+/// let lamp = Light::point(Vec3A::new(0.0, 5.0, 0.0), Vec3::ONE);
+/// assert_eq!(lamp.shape, LightShape::Point);
+/// assert!(!lamp.is_area());
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
-    /// Position.
+    /// Position: the point light, the centre of a square, the corner of a parallelogram.
     pub position: Vec3A,
     /// Colour.
     pub color: Vec3,
-    /// Side of the square area light; 0 for a point light.
-    pub size: f32,
+    /// What emits: a point or an area.
+    pub shape: LightShape,
+}
+
+/// The emitting shape of a [`Light`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightShape {
+    /// A point at the light's position (p3f `l x y z r g b`, `light punctual`).
+    Point,
+    /// The course's square area light: this side, in the world XY plane, centred on the light's
+    /// position (raylume's `l x y z r g b size`).
+    Square(f32),
+    /// A parallelogram with one corner at the light's position and its two edges ending at these
+    /// points (p3f 2024/25 `light quad`, student `al`).
+    Parallelogram {
+        /// The ends of the two edges that leave the corner.
+        ends: [Vec3A; 2],
+        /// Side of the grid of point lights that stands for it without antialiasing (0: the
+        /// render's light grid).
+        grid: u32,
+    },
+}
+
+impl Light {
+    /// A point light.
+    pub fn point(position: Vec3A, color: Vec3) -> Self {
+        Self { position, color, shape: LightShape::Point }
+    }
+
+    /// Whether the light has an area (soft shadows).
+    pub fn is_area(&self) -> bool {
+        match self.shape {
+            LightShape::Point => false,
+            LightShape::Square(size) => size > 0.0,
+            LightShape::Parallelogram { ends, .. } => ends.iter().any(|&e| e != self.position),
+        }
+    }
 }
 
 /// An object: a shape and the index of its material in [`Scene::materials`].

@@ -87,7 +87,7 @@ fn material(diffuse: [f32; 3], kd: f32, ks: f32, shine: f32, transmittance: f32,
 }
 
 fn light(x: f32, y: f32, z: f32) -> Light {
-    Light { position: Vec3A::new(x, y, z), color: Vec3::ONE, size: 0.0 }
+    Light::point(Vec3A::new(x, y, z), Vec3::ONE)
 }
 
 /// The sphereflake of the given depth (depth 1: the course's balls_low, 10 spheres; 4: balls_high,
@@ -134,6 +134,7 @@ pub fn sphereflake(depth: u32) -> Result<Scene, SceneError> {
         objects,
         accel_hint: None,
         spp_hint: None,
+        base_dir: None,
         shutter: None,
     })
 }
@@ -172,6 +173,7 @@ pub fn tetra(depth: u32) -> Result<Scene, SceneError> {
         objects: vec![Object { material: 0, shape: Shape::Mesh { vertices, triangles } }],
         accel_hint: None,
         spp_hint: None,
+        base_dir: None,
         shutter: None,
     })
 }
@@ -241,6 +243,7 @@ pub fn mount(depth: u32) -> Result<Scene, SceneError> {
         objects,
         accel_hint: None,
         spp_hint: None,
+        base_dir: None,
         shutter: None,
     })
 }
@@ -294,6 +297,7 @@ pub fn rings(count: u32) -> Result<Scene, SceneError> {
         objects,
         accel_hint: None,
         spp_hint: None,
+        base_dir: None,
         shutter: None,
     })
 }
@@ -315,11 +319,12 @@ pub fn mesh_view(mesh: Shape, width: u32, height: u32) -> Scene {
         view: View { from, at: centre, up: Vec3A::Y, angle_deg, hither: 0.0, width, height, aperture: 0.0, focal: 1.0 },
         background: Vec3::new(0.2, 0.25, 0.3),
         env: None,
-        lights: vec![Light { position: from + Vec3A::new(radius, radius * 2.0, 0.0), color: Vec3::ONE, size: 0.0 }],
+        lights: vec![Light::point(from + Vec3A::new(radius, radius * 2.0, 0.0), Vec3::ONE)],
         materials: vec![material([0.8, 0.8, 0.8], 0.9, 0.2, 30.0, 0.0, 1.0)],
         objects: vec![Object { material: 0, shape: mesh }],
         accel_hint: None,
         spp_hint: None,
+        base_dir: None,
         shutter: None,
     }
 }

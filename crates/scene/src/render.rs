@@ -12,18 +12,28 @@ use raylume_integrator::{
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
-use crate::{Scene, SceneError, Shape, load_cubemap, p3f};
+use crate::{LightShape, Scene, SceneError, Shape, Warning, load_cubemap, p3f};
 
 /// How to render a scene: the integrator's settings plus overrides of what the scene file says.
+///
+/// The defaults render a scene as the CLI does without flags: the scene's own `spp`, accelerator
+/// hint and cubemap (looked for beside the scene file, then in its parent folder).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
-    /// Depth, samples, seed, Fresnel mode, light grid, crop.
+    /// Depth, seed, Fresnel mode, light grid, crop; its `spp` is used only for a scene without
+    /// `spp` when [`RenderOptions::spp`] is `None`.
     pub settings: RenderSettings,
+    /// Samples per pixel; `None` takes the scene's `spp` (0 meaning one sample at the pixel
+    /// centre), else `settings.spp`.
+    pub spp: Option<u32>,
+    /// Make what would be a warning (a missing cubemap) an error.
+    pub strict: bool,
     /// The accelerator; `None` takes the scene's `accel` hint, else the BVH.
     pub accel: Option<AccelKind>,
     /// Overrides the scene's resolution (the vertical field of view is kept).
     pub resolution: Option<(u32, u32)>,
-    /// Folders searched, in order, for the scene's `env` cubemap.
+    /// Further folders searched for the scene's `env` cubemap, after the scene's folder
+    /// ([`Scene::base_dir`], else the current one) and its parent.
     pub env_dirs: Vec<PathBuf>,
     /// Whether to use the scene's cubemap (false: escaping rays return the background colour).
     pub use_env: bool,
@@ -61,6 +71,8 @@ impl Default for RenderOptions {
     fn default() -> Self {
         Self {
             settings: RenderSettings::default(),
+            spp: None,
+            strict: false,
             accel: None,
             resolution: None,
             env_dirs: Vec::new(),
@@ -127,6 +139,8 @@ pub struct RenderOutput {
     pub build_seconds: f64,
     /// Seconds spent tracing.
     pub render_seconds: f64,
+    /// What the render left out (a cubemap that was not found), to be shown to the user.
+    pub warnings: Vec<Warning>,
 }
 
 /// The primitives of a scene with their shading data, in one order.
@@ -170,20 +184,19 @@ impl Scene {
                 ),
                 Shape::Box { min, max } => push(Primitive::Box(AaBox { bounds: Aabb::new(*min, *max) }), none),
                 Shape::Polygon(v) => {
-                    for i in 1..v.len().saturating_sub(1) {
-                        push(Primitive::Triangle(Triangle::new(v[0], v[i], v[i + 1])), none);
+                    for t in crate::triangulate(v) {
+                        let [a, b, c] = t.map(|i| v[i as usize]);
+                        push(Primitive::Triangle(Triangle::new(a, b, c)), none);
                     }
                 }
                 Shape::Patch(v) => {
-                    for i in 1..v.len().saturating_sub(1) {
-                        let normals = [v[0].1, v[i].1, v[i + 1].1].map(|n| n.normalize_or_zero());
+                    let points: Vec<Vec3A> = v.iter().map(|p| p.0).collect();
+                    for t in crate::triangulate(&points) {
+                        let [a, b, c] = t.map(|i| v[i as usize]);
                         let index = out.vertex_normals.len() as u32;
-                        out.vertex_normals.push(normals);
-                        let mut push = |p: Primitive, normals: u32| {
-                            out.primitives.push(p);
-                            out.shading.push(Shading { material: o.material, normals });
-                        };
-                        push(Primitive::Triangle(Triangle::new(v[0].0, v[i].0, v[i + 1].0)), index);
+                        out.vertex_normals.push([a.1, b.1, c.1].map(|n| n.normalize_or_zero()));
+                        out.primitives.push(Primitive::Triangle(Triangle::new(a.0, b.0, c.0)));
+                        out.shading.push(Shading { material: o.material, normals: index });
                     }
                 }
                 Shape::Plane([p0, p1, p2]) => {
@@ -222,10 +235,7 @@ impl Scene {
 
     /// The scene as it will be rendered with `options`: its view, lights and materials with the
     /// overrides applied.
-    fn prepared(
-        &self,
-        options: &RenderOptions,
-    ) -> Result<(raylume_camera::View, Vec<Light>, Vec<Phong>, Interval), SceneError> {
+    fn prepared(&self, options: &RenderOptions) -> Result<Prepared, SceneError> {
         let mut view = self.view;
         if let Some((w, h)) = options.resolution {
             if w == 0
@@ -256,7 +266,14 @@ impl Scene {
         let lights = self
             .lights
             .iter()
-            .map(|l| Light { position: l.position, color: l.color, size: options.area_light_size.unwrap_or(l.size) })
+            .map(|l| match (options.area_light_size, l.shape) {
+                (Some(size), _) | (None, LightShape::Square(size)) => Light::square(l.position, l.color, size),
+                (None, LightShape::Point) => Light::point(l.position, l.color),
+                (None, LightShape::Parallelogram { ends, grid }) => {
+                    let edges = ends.map(|e| e - l.position);
+                    Light { position: l.position + (edges[0] + edges[1]) * 0.5, color: l.color, edges, grid }
+                }
+            })
             .collect();
         let materials = self
             .materials
@@ -272,30 +289,59 @@ impl Scene {
             Some((t0, t1)) => return Err(SceneError::Invalid(format!("shutter [{t0}, {t1}] is not an interval"))),
             None => self.shutter(),
         };
-        Ok((view, lights, materials, shutter))
+        let spp = options.spp.or(self.spp_hint.map(|s| s.max(1))).unwrap_or(options.settings.spp);
+        let settings = RenderSettings { spp, ..options.settings };
+        Ok(Prepared { view, lights, materials, shutter, settings })
+    }
+
+    /// The folders the scene's cubemap is looked for in with `options`.
+    pub fn env_search_dirs(&self, options: &RenderOptions) -> Vec<PathBuf> {
+        p3f::env_search_dirs(self.base_dir.as_deref(), &options.env_dirs)
+    }
+
+    /// What escaping rays see: the cubemap, if the scene has one that `options` use and it is
+    /// found, else the background colour (with a warning, or an error under `strict`).
+    fn background(&self, options: &RenderOptions, warnings: &mut Vec<Warning>) -> Result<Background, SceneError> {
+        let env = match (&self.env, options.use_env) {
+            (Some(name), true) => match crate::find_cubemap(name, &self.env_search_dirs(options)) {
+                Ok(_) => Some(load_cubemap(name, &self.env_search_dirs(options))?),
+                Err(why) if options.strict => {
+                    return Err(SceneError::Environment { name: name.clone(), message: why });
+                }
+                Err(why) => {
+                    warnings.push(Warning {
+                        file: String::new(),
+                        line: 0,
+                        column: 0,
+                        message: format!("environment map: {why}; escaping rays show the background colour"),
+                    });
+                    None
+                }
+            },
+            _ => None,
+        };
+        Ok(Background { color: self.background, env })
     }
 
     /// What rendering with `options` uses.
     pub fn features(&self, options: &RenderOptions) -> Result<Features, SceneError> {
-        let (view, lights, materials, shutter) = self.prepared(options)?;
-        Ok(self.features_of(&view, &lights, &materials, shutter, &options.settings))
+        Ok(self.features_of(&self.prepared(options)?))
     }
 
-    fn features_of(
-        &self,
-        view: &raylume_camera::View,
-        lights: &[Light],
-        materials: &[Phong],
-        shutter: Interval,
-        settings: &RenderSettings,
-    ) -> Features {
+    /// The samples per pixel a render with `options` takes (before the sampler rounds them).
+    pub fn samples_per_pixel(&self, options: &RenderOptions) -> Result<u32, SceneError> {
+        Ok(self.prepared(options)?.settings.spp)
+    }
+
+    fn features_of(&self, p: &Prepared) -> Features {
+        let Prepared { view, lights, materials, shutter, settings } = p;
         let moving = self
             .objects
             .iter()
             .any(|o| matches!(o.shape, Shape::MovingSphere { center0, center1, .. } if center0 != center1));
         Features {
             antialiasing: settings.antialiasing(),
-            area_lights: lights.iter().any(|l| l.size > 0.0),
+            area_lights: lights.iter().any(Light::is_area),
             depth_of_field: view.aperture > 0.0,
             fuzzy_reflections: materials.iter().any(|m| m.roughness > 0.0 && m.ks > 0.0 && m.transmittance == 0.0),
             motion_blur: moving && shutter.max > shutter.min,
@@ -321,7 +367,7 @@ impl Scene {
     /// ```
     /// use std::ops::ControlFlow;
     /// use raylume_scene::{p3f, RenderOptions, DEFAULT_SCENE};
-    /// let (scene, _) = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap();
+    /// let scene = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
     /// let options = RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() };
     /// let mut seen = Vec::new();
     /// let out = scene.render_progressive(&options, &[1, 3, 4, 8], &mut |p| {
@@ -349,23 +395,21 @@ impl Scene {
         on_row: &(dyn Fn() + Sync),
         progressive: Option<(&[u32], OnPass)>,
     ) -> Result<RenderOutput, SceneError> {
-        let (view, lights, materials, shutter) = self.prepared(options)?;
-        let mut features = self.features_of(&view, &lights, &materials, shutter, &options.settings);
+        let prepared = self.prepared(options)?;
+        let mut features = self.features_of(&prepared);
         features.antialiasing |= progressive.is_some();
-        let env = match (&self.env, options.use_env) {
-            (Some(name), true) => Some(load_cubemap(name, &options.env_dirs)?),
-            _ => None,
-        };
-        let background = Background { color: self.background, env };
+        let mut warnings = Vec::new();
+        let background = self.background(options, &mut warnings)?;
+        let Prepared { view, lights, materials, shutter, settings } = prepared;
         let Primitives { primitives, shading, vertex_normals } = self.primitives();
         let kind = self.accel_kind(options);
         let build = Instant::now();
-        let passes = [options.settings.spp];
+        let passes = [settings.spp];
         let job = Job {
             view: &view,
             shutter,
             features,
-            settings: &options.settings,
+            settings: &settings,
             on_row,
             sampler: options.sampler,
             passes: progressive.as_ref().map_or(&passes[..], |p| p.0),
@@ -391,8 +435,17 @@ impl Scene {
             AccelKind::BvhMidpoint => run!(Bvh::with_build(primitives, shutter, BvhBuild::Midpoint)),
             AccelKind::Grid => run!(Grid::new(primitives, shutter, options.grid)),
         };
-        Ok(RenderOutput { film, stats, accel: kind, features, build_seconds, render_seconds })
+        Ok(RenderOutput { film, stats, accel: kind, features, build_seconds, render_seconds, warnings })
     }
+}
+
+/// The scene with a render's overrides applied.
+struct Prepared {
+    view: raylume_camera::View,
+    lights: Vec<Light>,
+    materials: Vec<Phong>,
+    shutter: Interval,
+    settings: RenderSettings,
 }
 
 /// One render's choices, turned into types one decision at a time.

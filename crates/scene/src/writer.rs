@@ -2,7 +2,7 @@ use std::fmt::Write;
 
 use raylume_geometry::{Vec3, Vec3A};
 
-use crate::{Scene, Shape};
+use crate::{LightShape, Scene, Shape};
 
 fn v3(out: &mut String, v: Vec3A) {
     let _ = write!(out, "{} {} {}", v.x, v.y, v.z);
@@ -43,12 +43,25 @@ impl Scene {
         let _ = writeln!(o, "\nangle {}\nhither {}\nresolution {} {}", v.angle_deg, v.hither, v.width, v.height);
         let _ = writeln!(o, "aperture {}\nfocal {}", v.aperture, v.focal);
         for l in &self.lights {
-            o.push_str("l ");
+            match l.shape {
+                LightShape::Point | LightShape::Square(_) => o.push_str("l "),
+                LightShape::Parallelogram { .. } => o.push_str("light quad "),
+            }
             v3(o, l.position);
             o.push(' ');
             c3(o, l.color);
-            if l.size > 0.0 {
-                let _ = write!(o, " {}", l.size);
+            match l.shape {
+                LightShape::Point => {}
+                LightShape::Square(size) => {
+                    let _ = write!(o, " {size}");
+                }
+                LightShape::Parallelogram { ends, grid } => {
+                    for e in ends {
+                        o.push(' ');
+                        v3(o, e);
+                    }
+                    let _ = write!(o, " {grid}");
+                }
             }
             o.push('\n');
         }

@@ -11,9 +11,9 @@ const HEADER: &str = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0.01\n
 
 fn ok(text: &str) -> Scene {
     match parse(text, "t.p3f", &LoadOptions::default()) {
-        Ok((scene, warnings)) => {
-            assert!(warnings.is_empty(), "{warnings:?}");
-            scene
+        Ok(loaded) => {
+            assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+            loaded.scene
         }
         Err(e) => panic!("{e}"),
     }
@@ -36,7 +36,7 @@ fn camera_with_and_without_lens() {
 #[test]
 fn every_tag() {
     let text = format!(
-        "accel 2\nspp 16\nbclr 0.1 0.2 0.3\nenv skybox\n{HEADER}aperture 0 focal 1\n\
+        "accel 2\nspp 16\nbclr 0.1 0.2 0.3\n{HEADER}aperture 0 focal 1\n\
          l 1 2 3 0.5 0.5 0.5\nl 4 5 6\n\
          f 1 0.9 0.7 0.5 1 1 1 0.5 30.0827 0 1 #a comment right after a token\n\
          s 0 0 0 0.5\nsm 0 0 0 1 1 1 0.5 0 3\nbox 0 0 0 1 2 3\n\
@@ -51,7 +51,6 @@ fn every_tag() {
     assert_eq!(s.accel_hint, Some(2));
     assert_eq!(s.spp_hint, Some(16));
     assert_eq!(s.background, Vec3::new(0.1, 0.2, 0.3));
-    assert_eq!(s.env.as_deref(), Some("skybox"));
     assert_eq!(s.lights.len(), 2);
     assert_eq!(s.lights[1].color, Vec3::ONE, "a light without colour is white");
     assert_eq!(s.materials.len(), 2);
@@ -97,8 +96,8 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "bad.p3f:9:9: expected a finite number (sphere radius), found 'inf'",
         ),
         (
-            &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\ns 0 0 0 -1"),
-            "bad.p3f:9:9: expected a positive sphere radius, found '-1'",
+            &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\ns 0 0 0 0"),
+            "bad.p3f:9:9: expected a sphere radius that is not 0, found '0'",
         ),
         (
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 0 512",
@@ -134,7 +133,11 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "bad.p3f:9:1: expected three plane points that are not collinear",
         ),
         ("bclr 0 0 0\n", "bad.p3f:2:1: expected a camera ('v' entity), found none in the file"),
-        (&format!("{HEADER}f 1 1 1"), "bad.p3f:8:8: expected a number (Kd), found the end of the file"),
+        (
+            &format!("{HEADER}f 1 1 1"),
+            "bad.p3f:8:1: expected 8 (NFF: r g b Kd Ks shine T ior) or 11 (p3f: dr dg db Kd sr sg sb Ks shine T ior) \
+             numbers after 'f', found 3 numbers",
+        ),
         (
             "v from 0 0 5 at 0 0 5 up 0 1 0 angle 45 hither 0 resolution 4 4",
             "bad.p3f:1:26: expected 'from' != 'at' and 'up' not parallel to the view direction",
@@ -162,14 +165,15 @@ fn errors_are_values_with_positions() {
 
 #[test]
 fn unknown_tags_warn_and_strict_makes_them_errors() {
-    let text = format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\nms 0 0 0 1 1 1 0.5\ns 0 0 0 1\n");
-    let (scene, warnings) = parse(&text, "w.p3f", &LoadOptions::default()).unwrap();
+    let text = format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\nzz 0 0 0 1 1 1 0.5\ns 0 0 0 1\n");
+    let loaded = parse(&text, "w.p3f", &LoadOptions::default()).unwrap();
+    let warnings = &loaded.warnings;
     assert_eq!(warnings.len(), 1);
     assert_eq!((warnings[0].line, warnings[0].column), (9, 1));
-    assert!(warnings[0].to_string().starts_with("w.p3f:9:1: warning: unknown tag 'ms'"), "{}", warnings[0]);
-    assert_eq!(scene.objects.len(), 1, "the numbers of the unknown tag are skipped, the sphere is kept");
+    assert!(warnings[0].to_string().starts_with("w.p3f:9:1: warning: unknown tag 'zz'"), "{}", warnings[0]);
+    assert_eq!(loaded.scene.objects.len(), 1, "the numbers of the unknown tag are skipped, the sphere is kept");
     let e = parse(&text, "w.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err().to_string();
-    assert!(e.starts_with("w.p3f:9:1: unknown tag 'ms'"), "{e}");
+    assert!(e.starts_with("w.p3f:9:1: unknown tag 'zz'"), "{e}");
 }
 
 #[test]
@@ -199,12 +203,14 @@ fn every_course_scene_loads_and_round_trips() {
         if path.extension().is_none_or(|e| e != "p3f") {
             continue;
         }
-        let (scene, warnings) =
-            load(&path, &LoadOptions { strict: true, ..Default::default() }).unwrap_or_else(|e| panic!("{e}"));
-        assert!(warnings.is_empty());
+        let loaded = load(&path, &LoadOptions { strict: true, ..Default::default() }).unwrap_or_else(|e| panic!("{e}"));
+        assert!(loaded.warnings.is_empty());
+        assert_eq!(loaded.dialect, raylume_scene::p3f::Dialect::P3f, "{}", path.display());
+        let scene = loaded.scene;
         assert!(!scene.objects.is_empty(), "{}", path.display());
         let text = scene.to_p3f();
-        let (again, _) = parse(&text, "roundtrip.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap();
+        let options = LoadOptions { strict: true, base_dir: scene.base_dir.clone(), ..Default::default() };
+        let again = parse(&text, "roundtrip.p3f", &options).unwrap().scene;
         assert_eq!(again, scene, "round trip of {}", path.display());
         count += 1;
     }
@@ -215,7 +221,7 @@ fn every_course_scene_loads_and_round_trips() {
 fn dragon_has_its_hundred_thousand_triangles() {
     let Some(shared) = shared() else { return };
     let start = std::time::Instant::now();
-    let (scene, _) = load(&shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap();
+    let scene = load(&shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap().scene;
     println!("dragon.p3f loaded in {:.3} s", start.elapsed().as_secs_f64());
     let mesh = scene.objects.iter().find_map(|o| match &o.shape {
         Shape::Mesh { vertices, triangles } => Some((vertices.len(), triangles.len())),
@@ -243,7 +249,7 @@ fn built_scene_round_trips_through_text() {
         .spp_hint(4)
         .build()
         .unwrap();
-    let (again, _) = parse(&scene.to_p3f(), "rt.p3f", &LoadOptions::default()).unwrap();
+    let again = parse(&scene.to_p3f(), "rt.p3f", &LoadOptions::default()).unwrap().scene;
     assert_eq!(again, scene);
     assert!(raylume_scene::SceneBuilder::new().sphere(Vec3A::ZERO, 1.0).build().is_err());
 }

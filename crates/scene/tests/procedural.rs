@@ -32,7 +32,7 @@ fn spheres(scene: &Scene) -> Vec<(Vec3A, f32)> {
 #[test]
 fn sphereflake_depth_1_is_the_course_balls_low() {
     let Some(shared) = shared() else { return };
-    let (course, _) = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap();
+    let course = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap().scene;
     let ours = sphereflake(1).unwrap();
     let (a, b) = (spheres(&course), spheres(&ours));
     assert_eq!(a.len(), b.len());
@@ -58,7 +58,7 @@ fn sizes_match_the_course_scenes_and_the_formulas() {
         for size in 1..4 {
             let scene = g.generate(size).unwrap();
             assert_eq!(scene.primitive_count() as u64, g.primitives(size), "{g:?} {size}");
-            let (again, _) = p3f::parse(&scene.to_p3f(), "gen.p3f", &Default::default()).unwrap();
+            let again = p3f::parse(&scene.to_p3f(), "gen.p3f", &Default::default()).unwrap().scene;
             assert_eq!(again, scene, "{g:?} {size} round trip");
         }
     }
@@ -102,7 +102,7 @@ fn obj_meshes_load_and_place() {
     std::fs::copy(shared.join("meshes/bunny.obj"), dir.join("bunny.obj")).unwrap();
     let scene_path = dir.join("s.p3f");
     std::fs::write(&scene_path, "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 8 8\nf 1 1 1 1 1 1 1 0 1 0 1\nobj bunny.obj 2 1 0 0\n").unwrap();
-    let (scene, _) = p3f::load(&scene_path, &Default::default()).unwrap();
+    let scene = p3f::load(&scene_path, &Default::default()).unwrap().scene;
     let Shape::Mesh { vertices: placed, .. } = &scene.objects[0].shape else { panic!("a mesh") };
     let placed_bounds = Aabb::from_points(placed.iter().copied());
     assert!((placed_bounds.min - (bounds.min * 2.0 + Vec3A::X)).length() < 1e-5);

@@ -1,0 +1,682 @@
+//! The grammar of every dialect: one entity at a time, each read by its tag and the count of
+//! numbers that follow it.
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use raylume_camera::View;
+use raylume_geometry::{Vec3, Vec3A};
+use raylume_material::Phong;
+
+use super::lexer::{Lexer, Token, shown};
+use super::{Dialect, LoadOptions, Loaded, MAX_PIXELS, MAX_RESOLUTION, env_search_dirs};
+use crate::{Light, LightShape, Object, Scene, SceneError, Shape, Warning};
+
+/// Every tag of every dialect.
+const TAGS: &[&str] = &[
+    "v", "camera", "bclr", "b", "env", "fire", "l", "light", "al", "f", "mat", "s", "sm", "ms", "box", "aabb", "p",
+    "pp", "pl", "npl", "c", "mesh", "obj", "accel", "spp", "shutter",
+];
+
+/// The tags that make an object (and need a material before them).
+const OBJECT_TAGS: &[&str] = &["s", "sm", "ms", "box", "aabb", "p", "pp", "pl", "npl", "c", "mesh", "obj"];
+
+/// The camera's keywords, in the order the format writes them.
+const CAMERA_KEYWORDS: &[&str] = &["from", "at", "up", "angle", "hither", "resolution", "aperture", "focal"];
+
+pub(super) struct Parser<'a, 'f> {
+    lex: Lexer<'a>,
+    file: &'f str,
+    options: &'f LoadOptions,
+    warnings: Vec<Warning>,
+    /// Signs of NFF and of the 2024/25 syntax seen so far.
+    nff: bool,
+    p3f2024: bool,
+    extensions: BTreeSet<&'static str>,
+}
+
+/// What one entity added to the scene.
+enum Entity {
+    Nothing,
+    Object(Shape),
+    Light(Light),
+    Material(Phong),
+}
+
+#[derive(Default)]
+struct SceneParts<'a> {
+    view: Option<View>,
+    background: Vec3,
+    env: Option<(String, Token<'a>)>,
+    lights: Vec<Light>,
+    materials: Vec<Phong>,
+    objects: Vec<Object>,
+    accel_hint: Option<u32>,
+    spp_hint: Option<u32>,
+    shutter: Option<(f32, f32)>,
+}
+
+impl<'a, 'f> Parser<'a, 'f> {
+    pub fn new(text: &'a str, file: &'f str, options: &'f LoadOptions) -> Self {
+        let nff = Path::new(file).extension().is_some_and(|e| e.eq_ignore_ascii_case("nff"));
+        Self {
+            lex: Lexer::new(text),
+            file,
+            options,
+            warnings: Vec::new(),
+            nff,
+            p3f2024: false,
+            extensions: BTreeSet::new(),
+        }
+    }
+
+    fn error_at(&self, line: u32, column: u32, message: String) -> SceneError {
+        SceneError::Syntax { file: self.file.to_owned(), line, column, message, warnings: Vec::new() }
+    }
+
+    fn error(&self, token: &Token, message: String) -> SceneError {
+        self.error_at(token.line, token.column, message)
+    }
+
+    /// Records a warning, or fails with it as an error under `strict`.
+    fn warn(&mut self, token: &Token, message: String) -> Result<(), SceneError> {
+        if self.options.strict {
+            return Err(self.error(token, message));
+        }
+        self.warnings.push(Warning { file: self.file.to_owned(), line: token.line, column: token.column, message });
+        Ok(())
+    }
+
+    /// The next token, or an error naming what was expected at the end of the file.
+    fn token(&mut self, expected: &str) -> Result<Token<'a>, SceneError> {
+        match self.lex.next() {
+            Some(t) => Ok(t),
+            None => {
+                let (line, column) = self.lex.eof_position();
+                Err(self.error_at(line, column, format!("expected {expected}, found the end of the file")))
+            }
+        }
+    }
+
+    fn number(&mut self, what: &str) -> Result<f32, SceneError> {
+        let t = self.token(&format!("a number ({what})"))?;
+        self.number_of(&t, what)
+    }
+
+    fn number_of(&self, t: &Token, what: &str) -> Result<f32, SceneError> {
+        match t.text.parse::<f64>() {
+            Ok(v) if v.is_finite() && (v as f32).is_finite() => Ok(v as f32),
+            Ok(_) => Err(self.error(t, format!("expected a finite number ({what}), found '{}'", t.shown()))),
+            Err(_) => Err(self.error(t, format!("expected a number ({what}), found '{}'", t.shown()))),
+        }
+    }
+
+    /// A number checked by `ok`, with `expected` in the message if it fails.
+    fn number_where(&mut self, what: &str, expected: &str, ok: impl Fn(f32) -> bool) -> Result<f32, SceneError> {
+        let t = self.token(&format!("a number ({what})"))?;
+        let v = self.number_of(&t, what)?;
+        if !ok(v) {
+            return Err(self.error(&t, format!("expected {expected}, found '{}'", t.shown())));
+        }
+        Ok(v)
+    }
+
+    fn vec3(&mut self, what: &str) -> Result<Vec3A, SceneError> {
+        let x = self.number(&format!("{what} x"))?;
+        let y = self.number(&format!("{what} y"))?;
+        let z = self.number(&format!("{what} z"))?;
+        Ok(Vec3A::new(x, y, z))
+    }
+
+    fn color(&mut self, what: &str) -> Result<Vec3, SceneError> {
+        let r = self.number(&format!("{what} r"))?;
+        let g = self.number(&format!("{what} g"))?;
+        let b = self.number(&format!("{what} b"))?;
+        Ok(Vec3::new(r, g, b))
+    }
+
+    /// A whole number in `min..=max`.
+    fn integer(&mut self, what: &str, min: i64, max: i64) -> Result<i64, SceneError> {
+        let t = self.token(&format!("an integer ({what})"))?;
+        match t.text.parse::<i64>() {
+            Ok(v) if (min..=max).contains(&v) => Ok(v),
+            Ok(_) => Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.shown()))),
+            Err(_) => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown()))),
+        }
+    }
+
+    /// A count of items of `numbers_each` numbers that the rest of the file must be able to hold
+    /// (each number takes at least two bytes), checked before anything is allocated.
+    fn count(&mut self, what: &str, min: i64, numbers_each: usize) -> Result<usize, SceneError> {
+        let t = self.lex.peek();
+        let n = self.integer(what, min, u32::MAX as i64)? as usize;
+        let room = self.lex.remaining() / 2 + 1;
+        if n.saturating_mul(numbers_each) > room {
+            let t = t.expect("a number was read");
+            return Err(self.error(&t, format!("{what} is {n}, but the rest of the file holds at most {room} numbers")));
+        }
+        Ok(n)
+    }
+
+    /// How many numbers follow (at most `limit`), checked against the counts `allowed` that the
+    /// entity's forms take.
+    fn form(&mut self, tag: &Token, allowed: &[usize], forms: &str) -> Result<usize, SceneError> {
+        let limit = allowed.iter().max().copied().unwrap_or(0) + 1;
+        let n = self.lex.numbers_ahead(limit);
+        if allowed.contains(&n) {
+            return Ok(n);
+        }
+        let found = if n == limit { format!("more than {}", limit - 1) } else { n.to_string() };
+        Err(self.error(tag, format!("expected {forms} after '{}', found {found} numbers", tag.text)))
+    }
+
+    pub fn scene(mut self) -> Result<Loaded, SceneError> {
+        match self.entities() {
+            Ok(parts) => self.finish(parts),
+            Err(e) => {
+                let warnings = std::mem::take(&mut self.warnings);
+                Err(e.with_earlier_warnings(warnings))
+            }
+        }
+    }
+
+    fn entities(&mut self) -> Result<SceneParts<'a>, SceneError> {
+        let mut parts = SceneParts::default();
+        while let Some(tag) = self.lex.next() {
+            if OBJECT_TAGS.contains(&tag.text) && parts.materials.is_empty() {
+                return Err(
+                    self.error(&tag, format!("'{}' comes before any material: expected an 'f' entity first", tag.text))
+                );
+            }
+            match self.entity(&tag, &mut parts)? {
+                Entity::Nothing => {}
+                Entity::Object(shape) => {
+                    let material = parts.materials.len() as u32 - 1;
+                    parts.objects.push(Object { material, shape });
+                }
+                Entity::Light(light) => parts.lights.push(light),
+                Entity::Material(m) => parts.materials.push(m),
+            }
+        }
+        Ok(parts)
+    }
+
+    fn entity(&mut self, tag: &Token<'a>, parts: &mut SceneParts<'a>) -> Result<Entity, SceneError> {
+        Ok(match tag.text {
+            "v" => {
+                parts.view = Some(self.view(tag, "from")?);
+                Entity::Nothing
+            }
+            "camera" => {
+                self.p3f2024 = true;
+                parts.view = Some(self.view(tag, "eye")?);
+                Entity::Nothing
+            }
+            "bclr" => {
+                parts.background = self.color("background colour")?;
+                Entity::Nothing
+            }
+            "b" => {
+                self.nff = true;
+                parts.background = self.color("background colour")?;
+                Entity::Nothing
+            }
+            "env" | "fire" => {
+                if tag.text == "fire" {
+                    self.extensions.insert("fire");
+                }
+                let name = self.token("an environment map folder name")?;
+                if let Some((first, _)) = &parts.env {
+                    let message = format!("a second cubemap '{}' is ignored: the scene uses '{first}'", name.shown());
+                    self.warn(tag, message)?;
+                } else {
+                    parts.env = Some((name.text.to_owned(), *tag));
+                }
+                Entity::Nothing
+            }
+            "l" => Entity::Light(self.light(tag)?),
+            "light" => Entity::Light(self.light_2024(tag)?),
+            "al" => Entity::Light(self.area_light(tag)?),
+            "f" | "mat" => Entity::Material(self.material(tag)?),
+            "s" => {
+                let center = self.vec3("sphere centre")?;
+                let radius = self.radius("sphere radius")?;
+                Entity::Object(Shape::Sphere { center, radius })
+            }
+            "sm" => Entity::Object(self.moving_sphere(false)?),
+            "ms" => {
+                self.extensions.insert("ms");
+                let timed = self.form(tag, &[7, 9], "7 (c0 c1 r) or 9 (c0 c1 r t0 t1) numbers")? == 9;
+                Entity::Object(self.moving_sphere(!timed)?)
+            }
+            "box" | "aabb" => {
+                if tag.text == "aabb" {
+                    self.nff = true;
+                }
+                let a = self.vec3("box corner")?;
+                let b = self.vec3("box opposite corner")?;
+                Entity::Object(Shape::Box { min: a.min(b), max: a.max(b) })
+            }
+            "p" => {
+                let n = self.count("polygon vertex count", 3, 3)?;
+                let mut v = Vec::with_capacity(n);
+                for i in 0..n {
+                    v.push(self.vec3(&format!("polygon vertex {}", i + 1))?);
+                }
+                Entity::Object(Shape::Polygon(v))
+            }
+            "pp" => {
+                let n = self.count("patch vertex count", 3, 6)?;
+                let mut v = Vec::with_capacity(n);
+                for i in 0..n {
+                    let p = self.vec3(&format!("patch vertex {}", i + 1))?;
+                    let nrm = self.vec3(&format!("patch normal {}", i + 1))?;
+                    v.push((p, nrm));
+                }
+                Entity::Object(Shape::Patch(v))
+            }
+            "pl" => {
+                let p0 = self.vec3("plane point 0")?;
+                let p1 = self.vec3("plane point 1")?;
+                let p2 = self.vec3("plane point 2")?;
+                if raylume_geometry::Plane::from_points(p0, p1, p2).is_none() {
+                    return Err(self.error(tag, "expected three plane points that are not collinear".to_owned()));
+                }
+                Entity::Object(Shape::Plane([p0, p1, p2]))
+            }
+            "npl" => {
+                self.p3f2024 = true;
+                let n = self.vec3("plane normal")?;
+                let d = self.number("plane offset D")?;
+                let Some(points) = plane_points(n, d) else {
+                    return Err(self.error(tag, "expected a plane normal that is not zero".to_owned()));
+                };
+                Entity::Object(Shape::Plane(points))
+            }
+            "c" => {
+                let base = self.vec3("cone base")?;
+                let base_radius = self.number("cone base radius")?.abs();
+                let apex = self.vec3("cone apex")?;
+                let apex_radius = self.number("cone apex radius")?.abs();
+                if base_radius == 0.0 && apex_radius == 0.0 {
+                    return Err(self.error(tag, "expected cone radii that are not both 0".to_owned()));
+                }
+                Entity::Object(Shape::Cone { base, base_radius, apex, apex_radius })
+            }
+            "mesh" => Entity::Object(self.mesh()?),
+            "obj" => {
+                self.extensions.insert("obj");
+                Entity::Object(self.obj()?)
+            }
+            "accel" => {
+                parts.accel_hint = Some(self.accel()?);
+                Entity::Nothing
+            }
+            "spp" => {
+                parts.spp_hint = Some(self.integer("samples per pixel", 0, 1 << 16)? as u32);
+                Entity::Nothing
+            }
+            "shutter" => {
+                self.extensions.insert("shutter");
+                let t0 = self.number("shutter open time")?;
+                let t1 =
+                    self.number_where("shutter close time", &format!("a shutter close time >= {t0}"), |t| t >= t0)?;
+                parts.shutter = Some((t0, t1));
+                Entity::Nothing
+            }
+            _ => {
+                self.unknown(tag)?;
+                Entity::Nothing
+            }
+        })
+    }
+
+    /// Puts the parts together: checks the camera and the cubemap.
+    fn finish(mut self, parts: SceneParts<'a>) -> Result<Loaded, SceneError> {
+        let Some(view) = parts.view else {
+            let (line, column) = self.lex.eof_position();
+            let e = self.error_at(line, column, "expected a camera ('v' entity), found none in the file".to_owned());
+            return Err(e.with_earlier_warnings(self.warnings));
+        };
+        let env = parts.env;
+        if let Some((name, tag)) = &env {
+            let dirs = env_search_dirs(self.options.base_dir.as_deref(), &self.options.env_dirs);
+            if let Err(why) = crate::env::find_cubemap(name, &dirs) {
+                let message = format!("environment map: {why}; escaping rays show the background colour");
+                if let Err(e) = self.warn(tag, message) {
+                    return Err(e.with_earlier_warnings(self.warnings));
+                }
+            }
+        }
+        let scene = Scene {
+            view,
+            background: parts.background,
+            env: env.map(|(name, _)| name),
+            lights: parts.lights,
+            materials: parts.materials,
+            objects: parts.objects,
+            accel_hint: parts.accel_hint,
+            spp_hint: parts.spp_hint,
+            shutter: parts.shutter,
+            base_dir: self.options.base_dir.clone(),
+        };
+        let dialect = if self.p3f2024 {
+            Dialect::P3f2024
+        } else if self.nff {
+            Dialect::Nff
+        } else {
+            Dialect::P3f
+        };
+        Ok(Loaded { scene, warnings: self.warnings, dialect, extensions: self.extensions.into_iter().collect() })
+    }
+
+    /// Skips what the reader does not know, with a warning: an unknown word and the rest of its
+    /// line, and the lines of numbers that follow it (its data), as the course's line-based
+    /// readers did; or a run of numbers where a tag was expected.
+    fn unknown(&mut self, tag: &Token<'a>) -> Result<(), SceneError> {
+        if tag.is_number() {
+            let mut skipped = 1;
+            while self.lex.peek().is_some_and(|t| t.is_number()) {
+                self.lex.next();
+                skipped += 1;
+            }
+            let what = if skipped == 1 { "number".to_owned() } else { format!("numbers (the first of {skipped})") };
+            return self.warn(tag, format!("unexpected {what} '{}' where a tag was expected, skipped", tag.shown()));
+        }
+        let hint = match TAGS.iter().find(|k| k.eq_ignore_ascii_case(tag.text)) {
+            Some(k) => format!(" (tags are lower case: '{k}')"),
+            None => String::new(),
+        };
+        let line = shown(self.lex.skip_line(tag));
+        let mut more = 0;
+        while self.lex.peek().is_some_and(|t| t.first_on_line && t.is_number()) {
+            let t = self.lex.next().expect("peeked");
+            self.lex.skip_line(&t);
+            more += 1;
+        }
+        let also = match more {
+            0 => String::new(),
+            1 => " and the line of numbers after it".to_owned(),
+            n => format!(" and the {n} lines of numbers after it"),
+        };
+        self.warn(tag, format!("unknown tag '{}'{hint}: skipped the line '{line}'{also}", tag.shown()))
+    }
+
+    /// A sphere's radius: not zero; a negative radius (NFF: the inside is visible) is its size.
+    fn radius(&mut self, what: &str) -> Result<f32, SceneError> {
+        Ok(self.number_where(what, &format!("a {what} that is not 0"), |r| r != 0.0)?.abs())
+    }
+
+    fn moving_sphere(&mut self, untimed: bool) -> Result<Shape, SceneError> {
+        let center0 = self.vec3("moving sphere centre 0")?;
+        let center1 = self.vec3("moving sphere centre 1")?;
+        let radius = self.radius("moving sphere radius")?;
+        let (time0, time1) =
+            if untimed { (0.0, 1.0) } else { (self.number("moving sphere t0")?, self.number("moving sphere t1")?) };
+        Ok(Shape::MovingSphere { center0, center1, radius, time0, time1 })
+    }
+
+    /// `l x y z [r g b [size]]`: a point light, white without a colour; raylume's 7th number makes
+    /// it a square area light of that side.
+    fn light(&mut self, tag: &Token) -> Result<Light, SceneError> {
+        let n = self.form(tag, &[3, 6, 7], "3 (x y z), 6 (x y z r g b) or 7 (x y z r g b size) numbers")?;
+        let position = self.vec3("light position")?;
+        let color = if n >= 6 { self.color("light colour")? } else { Vec3::ONE };
+        let shape = if n == 7 {
+            self.extensions.insert("area light size");
+            LightShape::Square(self.number_where("area light size", "an area light size >= 0", |s| s >= 0.0)?)
+        } else {
+            LightShape::Point
+        };
+        Ok(Light { position, color, shape })
+    }
+
+    /// `light punctual x y z r g b` or `light quad x y z r g b v1 v2 grid_res` (2024/25).
+    fn light_2024(&mut self, tag: &Token) -> Result<Light, SceneError> {
+        self.p3f2024 = true;
+        let kind = self.token("a light kind (punctual or quad)")?;
+        let quad = match kind.text {
+            "punctual" => false,
+            "quad" => true,
+            other => {
+                let message =
+                    format!("expected a light kind (punctual or quad) after '{}', found '{}'", tag.text, shown(other));
+                return Err(self.error(&kind, message));
+            }
+        };
+        let position = self.vec3("light position")?;
+        let color = self.color("light colour")?;
+        let shape = if quad {
+            let e1 = self.vec3("quad light edge end 1")?;
+            let e2 = self.vec3("quad light edge end 2")?;
+            let grid = self.integer("quad light grid resolution (0: the render's)", 0, 64)? as u32;
+            LightShape::Parallelogram { ends: [e1, e2], grid }
+        } else {
+            LightShape::Point
+        };
+        Ok(Light { position, color, shape })
+    }
+
+    /// `al x y z ax ay az w h [r g b]`: a rectangle centred at x y z facing a, w wide and h high
+    /// (students' area light). Its width runs along `a × up` (up = +Y, or +Z when `a` is vertical).
+    fn area_light(&mut self, tag: &Token) -> Result<Light, SceneError> {
+        self.extensions.insert("al");
+        let n = self.form(tag, &[8, 11], "8 (x y z ax ay az w h) or 11 (… r g b) numbers")?;
+        let center = self.vec3("area light centre")?;
+        let facing = self.vec3("area light direction")?;
+        let width = self.number_where("area light width", "an area light width >= 0", |w| w >= 0.0)?;
+        let height = self.number_where("area light height", "an area light height >= 0", |h| h >= 0.0)?;
+        let color = if n == 11 { self.color("area light colour")? } else { Vec3::ONE };
+        let Some(a) = facing.try_normalize() else {
+            return Err(self.error(tag, "expected an area light direction that is not zero".to_owned()));
+        };
+        let up = if a.cross(Vec3A::Y).length_squared() > 1e-6 { Vec3A::Y } else { Vec3A::Z };
+        let u = a.cross(up).normalize() * width;
+        let v = u.cross(a).normalize() * height;
+        let corner = center - (u + v) * 0.5;
+        Ok(Light {
+            position: corner,
+            color,
+            shape: LightShape::Parallelogram { ends: [corner + u, corner + v], grid: 0 },
+        })
+    }
+
+    /// `accel N` (0 none, 1 grid, 2 BVH) or, in 2024/25, `accel none|grid|bvh`.
+    fn accel(&mut self) -> Result<u32, SceneError> {
+        let t = self.lex.peek();
+        if let Some(word) = t.filter(|t| !t.is_number()) {
+            let hint = match word.text.to_ascii_lowercase().as_str() {
+                "none" => 0,
+                "grid" => 1,
+                "bvh" => 2,
+                _ => {
+                    return Err(self.error(
+                        &word,
+                        format!("expected an accelerator (0 or none, 1 or grid, 2 or bvh), found '{}'", word.shown()),
+                    ));
+                }
+            };
+            self.lex.next();
+            self.p3f2024 = true;
+            return Ok(hint);
+        }
+        Ok(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32)
+    }
+
+    /// The camera: `v from …` (or 2024/25 `camera eye …`) and its keywords. They may come in any
+    /// order; `aperture` and `focal` may be left out (a pinhole).
+    fn view(&mut self, tag: &Token, first: &str) -> Result<View, SceneError> {
+        let mut seen: [Option<Token>; 8] = [None; 8];
+        let mut up_numbers = None;
+        let (mut from, mut at, mut up) = (Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO);
+        let (mut angle_deg, mut hither, mut width, mut height, mut aperture, mut focal) = (0.0, 0.0, 0, 0, 0.0, 1.0);
+        loop {
+            let next = self.lex.peek();
+            let index = next.and_then(|t| {
+                let word = if t.text == "eye" { "from" } else { t.text };
+                CAMERA_KEYWORDS.iter().position(|k| *k == word)
+            });
+            let Some(index) = index else {
+                // The block ends at the first word that is not a camera keyword, once it is complete.
+                let required = [0, 1, 2, 3, 4, 5];
+                if let Some(&missing) = required.iter().find(|&&i| seen[i].is_none()) {
+                    let keyword = if missing == 0 { first } else { CAMERA_KEYWORDS[missing] };
+                    let expected = format!("'{keyword}'");
+                    return match next {
+                        Some(t) => Err(self.error(&t, format!("expected {expected}, found '{}'", t.shown()))),
+                        None => self.token(&expected).map(|_| unreachable!()),
+                    };
+                }
+                break;
+            };
+            let keyword = self.lex.next().expect("peeked");
+            if seen[index].is_some() {
+                return Err(self.error(&keyword, format!("camera keyword '{}' given twice", keyword.text)));
+            }
+            seen[index] = Some(keyword);
+            match index {
+                0 => from = self.vec3(keyword.text)?,
+                1 => at = self.vec3("at")?,
+                2 => {
+                    up_numbers = self.lex.peek();
+                    up = self.vec3("up")?
+                }
+                3 => {
+                    angle_deg =
+                        self.number_where("angle in degrees", "an angle in (0, 180) degrees", |a| a > 0.0 && a < 180.0)?
+                }
+                4 => hither = self.number("hither")?,
+                5 => {
+                    let res = self.lex.peek();
+                    width = self.integer("resolution width", 1, MAX_RESOLUTION as i64)? as u32;
+                    height = self.integer("resolution height", 1, MAX_RESOLUTION as i64)? as u32;
+                    if width as u64 * height as u64 > MAX_PIXELS {
+                        let t = res.expect("a number was read");
+                        return Err(
+                            self.error(&t, format!("resolution {width} x {height} exceeds {MAX_PIXELS} pixels"))
+                        );
+                    }
+                }
+                6 => aperture = self.number_where("aperture", "an aperture >= 0", |a| a >= 0.0)?,
+                _ => focal = self.number_where("focal ratio", "a positive focal ratio", |f| f > 0.0)?,
+            }
+        }
+        let dir = from - at;
+        if dir.length_squared() == 0.0 || up.cross(dir).length_squared() == 0.0 {
+            let t = up_numbers.unwrap_or(*tag);
+            return Err(
+                self.error(&t, "expected 'from' != 'at' and 'up' not parallel to the view direction".to_owned())
+            );
+        }
+        Ok(View { from, at, up, angle_deg, hither, width, height, aperture, focal })
+    }
+
+    /// A material: `f` (or 2024/25 `mat`) with 11 numbers (p3f: two colours), 12 (raylume: and a
+    /// roughness), or 8 (NFF: one colour, specular white).
+    fn material(&mut self, tag: &Token) -> Result<Phong, SceneError> {
+        if tag.text == "mat" {
+            self.p3f2024 = true;
+        }
+        let forms = "8 (NFF: r g b Kd Ks shine T ior) or 11 (p3f: dr dg db Kd sr sg sb Ks shine T ior) numbers";
+        let n = self.form(tag, &[8, 11, 12], forms)?;
+        let diffuse = self.color("diffuse colour")?;
+        let kd = self.number("Kd")?;
+        let specular = if n == 8 {
+            self.nff = true;
+            Vec3::ONE
+        } else {
+            self.color("specular colour")?
+        };
+        let ks = self.number("Ks")?;
+        let shine = self.number("shine")?;
+        let transmittance = self.number("transmittance")?;
+        let ior_token = self.lex.peek();
+        let ior = self.number("index of refraction")?;
+        if transmittance > 0.0 && ior <= 0.0 {
+            let t = ior_token.expect("a number was read");
+            return Err(self.error(
+                &t,
+                format!("expected a positive index of refraction for a transparent material, found '{}'", t.shown()),
+            ));
+        }
+        let mut roughness = 0.0;
+        if n == 12 {
+            self.extensions.insert("roughness");
+            roughness = self.number_where("roughness", "a roughness in [0, 1]", |r| (0.0..=1.0).contains(&r))?;
+        }
+        Ok(Phong { diffuse, kd, specular, ks, shine, transmittance, ior, specular_scale: 1.0, roughness })
+    }
+
+    /// raylume's extension `obj FILE [scale tx ty tz]`: an OBJ mesh, path relative to the scene's
+    /// folder, optionally scaled then translated.
+    fn obj(&mut self) -> Result<Shape, SceneError> {
+        let name = self.token("an OBJ file name")?;
+        let path = self.options.base_dir.as_deref().unwrap_or(Path::new(".")).join(name.text);
+        let shape = crate::obj::load(&path).map_err(|e| self.error(&name, format!("obj '{}': {e}", name.shown())))?;
+        let (mut scale, mut offset) = (1.0, Vec3A::ZERO);
+        if self.lex.peek().is_some_and(|t| t.is_number()) {
+            scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
+            offset = self.vec3("obj translation")?;
+        }
+        Ok(match shape {
+            Shape::Mesh { vertices, triangles } => {
+                Shape::Mesh { vertices: vertices.into_iter().map(|v| v * scale + offset).collect(), triangles }
+            }
+            other => other,
+        })
+    }
+
+    fn mesh(&mut self) -> Result<Shape, SceneError> {
+        let nv = self.count("mesh vertex count", 3, 3)?;
+        let nf_token = self.lex.peek();
+        let nf = self.integer("mesh triangle count", 0, u32::MAX as i64)? as usize;
+        let room = self.lex.remaining() / 2 + 1;
+        if nv.saturating_mul(3).saturating_add(nf.saturating_mul(3)) > room {
+            let t = nf_token.expect("a number was read");
+            return Err(self.error(
+                &t,
+                format!(
+                    "mesh of {nv} vertices and {nf} triangles, but the rest of the file holds at most {room} numbers"
+                ),
+            ));
+        }
+        let mut vertices = Vec::with_capacity(nv);
+        for i in 0..nv {
+            vertices.push(self.vec3(&format!("mesh vertex {}", i + 1))?);
+        }
+        let mut triangles = Vec::with_capacity(nf);
+        for f in 0..nf {
+            let mut tri = [0u32; 3];
+            for (k, slot) in tri.iter_mut().enumerate() {
+                let t = self.token("a vertex index")?;
+                let Ok(i) = t.text.parse::<i64>() else {
+                    let what = format!("vertex index {} of mesh triangle {}", k + 1, f + 1);
+                    return Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown())));
+                };
+                // 1-based; non-positive counts back from the end (OBJ style).
+                let zero_based = if i > 0 { i - 1 } else { nv as i64 + i };
+                if zero_based < 0 || zero_based >= nv as i64 {
+                    let what = format!("vertex index {} of mesh triangle {}", k + 1, f + 1);
+                    return Err(self.error(&t, format!("{what} is {i}, out of range for {nv} vertices")));
+                }
+                *slot = zero_based as u32;
+            }
+            triangles.push(tri);
+        }
+        Ok(Shape::Mesh { vertices, triangles })
+    }
+}
+
+/// Three points of the plane `n · x + d = 0` whose winding gives back the normal's direction.
+fn plane_points(n: Vec3A, d: f32) -> Option<[Vec3A; 3]> {
+    let len2 = n.length_squared();
+    if !(len2 > 0.0 && len2.is_finite()) {
+        return None;
+    }
+    let p0 = n * (-d / len2);
+    let unit = n / len2.sqrt();
+    let helper = if unit.x.abs() < 0.9 { Vec3A::X } else { Vec3A::Y };
+    let u = helper.cross(unit).normalize();
+    let v = unit.cross(u);
+    Some([p0, p0 + u, p0 + v])
+}
