@@ -342,3 +342,66 @@ fn bench_batch_gives_the_single_ray_hits() {
     let hit_count = hits.chunks(8).filter(|h| f32::from_le_bytes(h[..4].try_into().unwrap()).is_finite()).count();
     assert!(hit_count > 200, "the view must see the tetrahedron: {hit_count} hits");
 }
+
+#[test]
+fn warnings_are_printed_before_the_error_that_stops_a_load() {
+    let dir = temp_dir("warn-then-fail");
+    let scene = dir.join("old.nff");
+    let text = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 1 resolution 8 8\nGlass ball\nf 1 1 1 0.5 0.5\n";
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("out.png");
+    let run = raylume().arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let warning = stderr.find("old.nff:2:1: warning: unknown tag 'Glass': skipped 'Glass ball'").expect("the warning");
+    let error = stderr.find("raylume: error: ").expect("the error");
+    assert!(warning < error, "{stderr}");
+    assert!(stderr.contains("old.nff:3:1: expected 8 (NFF"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn every_dialect_renders_from_the_command_line_and_says_which_it_read() {
+    let dir = temp_dir("dialects");
+    let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scene/tests/dialects");
+    let expected = [
+        ("nff_1998.nff", "read as NFF"),
+        ("course_2019.p3f", "read as p3f"),
+        ("course_2021.p3f", "read as p3f"),
+        ("course_2024.p3f", "read as p3f 2024/25"),
+        ("student.p3f", "read as p3f with al, fire, ms"),
+    ];
+    for (name, summary) in expected {
+        let out = dir.join(format!("{name}.png"));
+        let run = raylume()
+            .args(["render", "--width", "24", "--height", "16", "--spp", "1"])
+            .arg(examples.join(name))
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{name}: {stderr}");
+        assert!(stderr.contains(&format!("{name}: {summary}\n")), "{name}: {stderr}");
+        assert!(out.exists());
+    }
+    // A missing cubemap is a warning that names the `env` line; --strict makes it an error.
+    let scene = examples.join("course_2019.p3f");
+    let run = raylume()
+        .args(["render", "--width", "8", "--height", "8"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(dir.join("a.png"))
+        .output();
+    let stderr = String::from_utf8_lossy(&run.unwrap().stderr).into_owned();
+    assert!(stderr.contains("course_2019.p3f:4:1: warning: environment map: no folder 'no_such_cubemap'"), "{stderr}");
+    let strict = raylume()
+        .args(["render", "--strict", "--width", "8", "--height", "8"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(dir.join("b.png"))
+        .output()
+        .unwrap();
+    assert_eq!(strict.status.code(), Some(2));
+    assert!(!dir.join("b.png").exists());
+}

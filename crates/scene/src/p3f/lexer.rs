@@ -140,12 +140,11 @@ impl<'a> Lexer<'a> {
         (0..limit).take_while(|_| ahead.next().is_some_and(|t| t.is_number())).count()
     }
 
-    /// Skips the rest of the line the last token was on; returns the whole line's text (comment
-    /// excluded), from its start.
+    /// Skips the rest of `token`'s line; returns the text skipped from `token` on (its comment
+    /// excluded).
     pub fn skip_line(&mut self, token: &Token<'a>) -> &'a str {
-        let line_start = self.text[..token.offset].rfind('\n').map_or(0, |i| i + 1);
         let end = self.text[token.offset..].find('\n').map_or(self.text.len(), |i| token.offset + i);
-        let line = self.text[line_start..end].split('#').next().unwrap_or("").trim();
+        let line = self.text[token.offset..end].split('#').next().unwrap_or("").trim();
         // A peeked token on the same line is skipped with it; one on a later line is kept.
         if self.peeked.is_some_and(|p| p.is_some_and(|p| p.offset < end)) {
             self.peeked = None;

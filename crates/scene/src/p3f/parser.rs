@@ -399,7 +399,7 @@ impl<'a, 'f> Parser<'a, 'f> {
             1 => " and the line of numbers after it".to_owned(),
             n => format!(" and the {n} lines of numbers after it"),
         };
-        self.warn(tag, format!("unknown tag '{}'{hint}: skipped the line '{line}'{also}", tag.shown()))
+        self.warn(tag, format!("unknown tag '{}'{hint}: skipped '{line}'{also}", tag.shown()))
     }
 
     /// A sphere's radius: not zero; a negative radius (NFF: the inside is visible) is its size.
