@@ -6,21 +6,50 @@ use raylume_geometry::Vec3A;
 
 use crate::{SceneError, Shape};
 
+/// Largest OBJ file read, in bytes.
+pub const MAX_OBJ_BYTES: u64 = 1 << 32;
+
 /// Reads every model of an OBJ file into one triangle mesh ([`Shape::Mesh`]); polygons are
-/// triangulated, materials and texture coordinates ignored.
+/// triangulated, materials (and the MTL files they name, which are not opened) and texture
+/// coordinates ignored. Only regular files of at most [`MAX_OBJ_BYTES`] are read.
 ///
 /// ```no_run
-/// let mesh = raylume_scene::obj::load(std::path::Path::new("bunny.obj")).unwrap();
+/// let mesh = raylume_scene::obj::load("bunny.obj").unwrap();
 /// ```
-pub fn load(path: &Path) -> Result<Shape, SceneError> {
+pub fn load(path: impl AsRef<Path>) -> Result<Shape, SceneError> {
+    let path = path.as_ref();
+    let bytes = crate::p3f::read_capped(path, MAX_OBJ_BYTES)
+        .map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
+    parse(&bytes, &path.display().to_string())
+}
+
+/// Parses the bytes of an OBJ file ([`load`]); `name` names it in messages, which give the line
+/// of a malformed entry.
+///
+/// ```
+/// let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n";
+/// let raylume_scene::Shape::Mesh { triangles, .. } = raylume_scene::obj::parse(obj, "quad.obj").unwrap() else {
+///     unreachable!()
+/// };
+/// assert_eq!(triangles.len(), 2);
+/// let err = raylume_scene::obj::parse(b"v 0 0 0\nv 1 x 0\n", "bad.obj").unwrap_err();
+/// assert_eq!(err.to_string(), "bad.obj:2: not a readable OBJ file (cannot parse a vertex position): 'v 1 x 0'");
+/// ```
+pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
     let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| match e {
-        tobj::LoadError::OpenFileFailed | tobj::LoadError::ReadError => SceneError::Io {
-            path: path.to_owned(),
-            source: std::fs::File::open(path).err().unwrap_or_else(|| std::io::Error::other(e.to_string())),
-        },
-        other => SceneError::Invalid(format!("{}: not a readable OBJ file: {other}", path.display())),
-    })?;
+    let no_materials = |_: &Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
+    let (models, _materials) = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &options, no_materials)
+        .map_err(|e| {
+            let what = describe(&e);
+            match locate(bytes, &e) {
+                Some((line, text)) => SceneError::Invalid(format!(
+                    "{name}:{line}: not a readable OBJ file ({what}): '{}'",
+                    crate::p3f::shown(text.trim())
+                )),
+                None => SceneError::Invalid(format!("{name}: not a readable OBJ file ({what})")),
+            }
+        })?;
+    let path = Path::new(name);
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     for model in &models {
@@ -53,4 +82,78 @@ pub fn load(path: &Path) -> Result<Shape, SceneError> {
         return Err(SceneError::Invalid(format!("{}: no faces", path.display())));
     }
     Ok(Shape::Mesh { vertices, triangles })
+}
+
+fn describe(e: &tobj::LoadError) -> &'static str {
+    use tobj::LoadError as E;
+    match e {
+        E::PositionParseError => "cannot parse a vertex position",
+        E::NormalParseError => "cannot parse a normal",
+        E::TexcoordParseError => "cannot parse a texture coordinate",
+        E::FaceParseError => "cannot parse a face",
+        E::FaceVertexOutOfBounds | E::FaceNormalOutOfBounds | E::FaceTexCoordOutOfBounds => {
+            "a face refers to a vertex that is not there"
+        }
+        E::InvalidPolygon => "a face with fewer than three vertices",
+        E::InvalidLoadOptionConfig => "invalid options",
+        _ => "cannot read it",
+    }
+}
+
+/// The line (from 1) and text of the first entry that makes tobj fail with `e`.
+fn locate<'a>(bytes: &'a [u8], e: &tobj::LoadError) -> Option<(usize, &'a str)> {
+    use tobj::LoadError as E;
+    let text = std::str::from_utf8(bytes).ok()?;
+    let floats = |rest: &str, min: usize| {
+        let parsed: Option<Vec<f32>> = rest.split_whitespace().map(|t| t.parse().ok()).collect();
+        parsed.is_some_and(|v| v.len() >= min)
+    };
+    let (mut positions, mut normals, mut texcoords) = (0i64, 0i64, 0i64);
+    for (i, line) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let mut words = line.split_whitespace();
+        let (Some(tag), rest) = (words.next(), line.trim_start().get(1..).unwrap_or("")) else { continue };
+        let rest = rest.trim_start_matches(|c: char| !c.is_whitespace());
+        let bad = match tag {
+            "v" => {
+                positions += 1;
+                matches!(e, E::PositionParseError) && !floats(rest, 3)
+            }
+            "vn" => {
+                normals += 1;
+                matches!(e, E::NormalParseError) && !floats(rest, 3)
+            }
+            "vt" => {
+                texcoords += 1;
+                matches!(e, E::TexcoordParseError) && !floats(rest, 1)
+            }
+            "f" => {
+                let refs: Vec<&str> = rest.split_whitespace().collect();
+                let in_range = |s: &str, count: i64| {
+                    s.is_empty()
+                        || s.parse::<i64>().is_ok_and(|k| k != 0 && (if k > 0 { k <= count } else { -k <= count }))
+                };
+                let parses = |s: &str| s.is_empty() || s.parse::<i64>().is_ok_and(|k| k != 0);
+                match e {
+                    E::InvalidPolygon => refs.len() < 3,
+                    E::FaceParseError => refs.iter().any(|r| r.split('/').any(|s| !parses(s))),
+                    E::FaceVertexOutOfBounds => {
+                        refs.iter().any(|r| !in_range(r.split('/').next().unwrap_or(""), positions))
+                    }
+                    E::FaceTexCoordOutOfBounds => {
+                        refs.iter().any(|r| !in_range(r.split('/').nth(1).unwrap_or(""), texcoords))
+                    }
+                    E::FaceNormalOutOfBounds => {
+                        refs.iter().any(|r| !in_range(r.split('/').nth(2).unwrap_or(""), normals))
+                    }
+                    _ => false,
+                }
+            }
+            _ => false,
+        };
+        if bad {
+            return Some((line_no, line));
+        }
+    }
+    None
 }

@@ -30,6 +30,7 @@ use std::path::{Path, PathBuf};
 use crate::{Scene, SceneError, Warning};
 
 mod lexer;
+pub(crate) use lexer::shown;
 mod parser;
 
 /// Largest image side accepted, in pixels.
@@ -112,30 +113,33 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Sce
     if options.base_dir.is_none() {
         options.base_dir = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p }.to_owned());
     }
-    let name = path.display().to_string();
-    match std::str::from_utf8(&bytes) {
-        Ok(text) => parse(text, &name, &options),
+    parse_bytes(&bytes, &path.display().to_string(), &options)
+}
+
+/// Parses the bytes of a scene file of any dialect ([`parse`] once decoded): text that is not
+/// UTF-8 is read as Latin-1, with a warning naming the first byte that is not (an error under
+/// `strict`).
+///
+/// ```
+/// use raylume_scene::p3f::{parse_bytes, LoadOptions};
+/// let text = b"v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 4 4 # D\xfcrer\n";
+/// let loaded = parse_bytes(text, "latin1.p3f", &LoadOptions::default()).unwrap();
+/// assert_eq!(loaded.warnings[0].to_string(), "latin1.p3f:1:68: warning: byte 0xFC is not UTF-8: the file is read as Latin-1");
+/// ```
+pub fn parse_bytes(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse(text, name, options),
         Err(e) => {
-            let (line, column) = position_of(&bytes, e.valid_up_to());
+            let (line, column) = position_of(bytes, e.valid_up_to());
             let byte = bytes[e.valid_up_to()];
             let text: String = bytes.iter().map(|&b| b as char).collect();
-            let warning = Warning {
-                file: name.clone(),
-                line,
-                column,
-                message: format!("byte 0x{byte:02X} is not UTF-8: the file is read as Latin-1"),
-            };
+            let message = format!("byte 0x{byte:02X} is not UTF-8");
             if options.strict {
-                return Err(SceneError::Syntax {
-                    file: name,
-                    line,
-                    column,
-                    message: warning.message.replace(": the file is read as Latin-1", ""),
-                    warnings: Vec::new(),
-                });
+                return Err(SceneError::Syntax { file: name.to_owned(), line, column, message, warnings: Vec::new() });
             }
-            let mut loaded =
-                parse(&text, &name, &options).map_err(|e| e.with_earlier_warnings(vec![warning.clone()]))?;
+            let message = format!("{message}: the file is read as Latin-1");
+            let warning = Warning { file: name.to_owned(), line, column, message };
+            let mut loaded = parse(&text, name, options).map_err(|e| e.with_earlier_warnings(vec![warning.clone()]))?;
             loaded.warnings.insert(0, warning);
             Ok(loaded)
         }

@@ -30,7 +30,7 @@ impl Token<'_> {
 }
 
 /// `text` with its invisible or look-alike characters escaped (`\u{a0}`).
-pub(super) fn shown(text: &str) -> String {
+pub(crate) fn shown(text: &str) -> String {
     text.chars()
         .map(|c| {
             if c.is_control() || (c.is_whitespace() && c != ' ') || matches!(c, '\u{200b}'..='\u{200f}' | '\u{feff}') {
