@@ -24,6 +24,12 @@ impl Default for GridParams {
 
 /// Largest number of cells per axis.
 const MAX_CELLS_PER_AXIS: usize = 512;
+/// Largest number of cells in all.
+const MAX_CELLS: u64 = 1 << 25;
+/// Most cell entries per bounded primitive, and in any case: a grid whose primitives overlap so
+/// much that they would take more is built coarser, so its size stays bounded by its input's.
+const ENTRIES_PER_PRIMITIVE: u64 = 64;
+const MIN_ENTRY_BUDGET: u64 = 1 << 24;
 /// Mailbox slots per ray (direct-mapped by primitive index).
 const MAILBOX: usize = 32;
 
@@ -45,6 +51,18 @@ pub struct Grid<P> {
     cell_start: Vec<u32>,
     items: Vec<u32>,
     mailbox: bool,
+}
+
+/// How many cell entries the bounded boxes of `prim_bounds` make in a grid of `cells` over `bounds`.
+fn entries(prim_bounds: &[Aabb], bounds: Aabb, cells: [usize; 3]) -> u64 {
+    // The same arithmetic as `Grid::cell_coord`.
+    let inv = (bounds.diagonal() / Vec3A::new(cells[0] as f32, cells[1] as f32, cells[2] as f32)).recip();
+    let coord = |p: Vec3A, a: usize| ((((p - bounds.min) * inv)[a].max(0.0)) as usize).min(cells[a] - 1) as u64;
+    prim_bounds
+        .iter()
+        .filter(|b| b.is_finite() && !b.is_empty())
+        .map(|b| (0..3).map(|a| coord(b.max, a) - coord(b.min, a) + 1).product::<u64>())
+        .fold(0u64, u64::saturating_add)
 }
 
 impl<P: Intersect> Grid<P> {
@@ -77,8 +95,17 @@ impl<P: Intersect> Grid<P> {
         );
         let extent = bounds.diagonal();
         let volume = extent.x * extent.y * extent.z;
-        let per_unit = (params.k.max(1e-3) * bounded.max(1) as f32 / volume).cbrt();
-        let cells = [0, 1, 2].map(|a| ((extent[a] * per_unit).round() as usize).clamp(1, MAX_CELLS_PER_AXIS));
+        let mut per_unit = (params.k.clamp(1e-3, 1e6) * bounded.max(1) as f32 / volume).cbrt();
+        let budget =
+            (bounded as u64).saturating_mul(ENTRIES_PER_PRIMITIVE).max(MIN_ENTRY_BUDGET).min(u32::MAX as u64 / 2);
+        let cells = loop {
+            let cells = [0, 1, 2].map(|a| ((extent[a] * per_unit).round() as usize).clamp(1, MAX_CELLS_PER_AXIS));
+            let n_cells = cells.iter().map(|&c| c as u64).product::<u64>();
+            if cells == [1, 1, 1] || (n_cells <= MAX_CELLS && entries(&prim_bounds, bounds, cells) <= budget) {
+                break cells;
+            }
+            per_unit *= 0.8;
+        };
         let cell_size = extent / Vec3A::new(cells[0] as f32, cells[1] as f32, cells[2] as f32);
         let inv_cell_size = cell_size.recip();
         let mut grid = Self {
@@ -118,6 +145,11 @@ impl<P: Intersect> Grid<P> {
         grid.cell_start = start;
         grid.items = items;
         grid
+    }
+
+    /// The number of cell entries, the length of its primitive lists.
+    pub fn entries(&self) -> usize {
+        self.items.len()
     }
 
     /// Cells per axis.

@@ -70,7 +70,18 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         scene.render_progressive(&options, &[spp], &mut once).map_err(bad_input)
     };
     let reference: Film = match &args.reference {
-        Some(path) => read_linear(path)?,
+        Some(path) => {
+            let film = Film::read(path).map_err(bad_input)?;
+            if let Some(i) = film.pixels().iter().position(|p| !p.is_finite()) {
+                let (x, y) = (i as u32 % film.width(), i as u32 / film.width());
+                return Err(bad_input(format!(
+                    "{}: pixel ({x}, {y}) (row 0 at the top) is {}: a reference must be finite",
+                    path.display(),
+                    film.pixels()[i]
+                )));
+            }
+            film
+        }
         None => {
             eprintln!("raylume: rendering the reference at {} spp", args.reference_spp);
             let out = render(args.reference_spp, 0x005e_ed0f_7e1e, SamplerKind::Jittered)?;
@@ -134,73 +145,20 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             slope.map_or("n/a".to_owned(), |s| format!("{s:.3}"))
         );
     }
-    let png_path = args.output.join("convergence.png");
-    plot(&png_path, &series, &scene_name(&args))
-        .map_err(|e| Failure { code: 1, message: format!("{}: {e}", png_path.display()) })?;
-    eprintln!("raylume: wrote {}", png_path.display());
+    // The measured rows first: a plot that cannot be drawn loses none of them.
     let csv_path = args.output.join("convergence.csv");
     std::fs::write(&csv_path, csv).map_err(|e| Failure { code: 1, message: format!("{}: {e}", csv_path.display()) })?;
+    eprintln!("raylume: wrote {}", csv_path.display());
     println!(
         "{:<12} {:>6} {:>10} {:>12} {:>12} {:>8} {:>12}",
         "sampler", "spp", "seconds", "rmse", "rel_mse", "psnr", "mae"
     );
     print!("{table}");
-    eprintln!("raylume: wrote {}", csv_path.display());
+    let png_path = args.output.join("convergence.png");
+    plot(&png_path, &series, &scene_name(&args))
+        .map_err(|e| Failure { code: 1, message: format!("{}: {e}", png_path.display()) })?;
+    eprintln!("raylume: wrote {}", png_path.display());
     Ok(())
-}
-
-/// Reads a linear reference image: PFM (as raylume writes it) or OpenEXR.
-fn read_linear(path: &Path) -> Result<Film, Failure> {
-    let fail = |m: String| bad_input(format!("{}: {m}", path.display()));
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    if ext == "pfm" {
-        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
-        let mut fields = Vec::new();
-        let mut pos = 0;
-        while fields.len() < 4 && pos < bytes.len() {
-            while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
-                pos += 1;
-            }
-            let start = pos;
-            while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
-                pos += 1;
-            }
-            fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
-        }
-        pos += 1;
-        if fields.len() < 4 || fields[0] != "PF" {
-            return Err(fail("not a colour PFM file (expected 'PF')".to_owned()));
-        }
-        let (w, h): (u32, u32) = (
-            fields[1].parse().map_err(|_| fail("bad width".into()))?,
-            fields[2].parse().map_err(|_| fail("bad height".into()))?,
-        );
-        let scale: f32 = fields[3].parse().map_err(|_| fail("bad scale".into()))?;
-        let n = w as usize * h as usize;
-        if w == 0 || h == 0 || bytes.len().saturating_sub(pos) != n * 12 {
-            return Err(fail(format!("expected {w}x{h} pixels of 12 bytes")));
-        }
-        let read = |b: &[u8]| {
-            if scale < 0.0 {
-                f32::from_le_bytes([b[0], b[1], b[2], b[3]])
-            } else {
-                f32::from_be_bytes([b[0], b[1], b[2], b[3]])
-            }
-        };
-        let mut pixels = vec![glam::Vec3::ZERO; n];
-        for (i, c) in bytes[pos..].chunks_exact(12).enumerate() {
-            // PFM rows are stored bottom first.
-            let (row, col) = (i / w as usize, i % w as usize);
-            pixels[(h as usize - 1 - row) * w as usize + col] =
-                glam::Vec3::new(read(&c[0..4]), read(&c[4..8]), read(&c[8..12]));
-        }
-        Ok(Film::from_pixels(w, h, pixels))
-    } else {
-        let img = image::open(path).map_err(|e| fail(e.to_string()))?.into_rgb32f();
-        let (w, h) = img.dimensions();
-        let pixels = img.pixels().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
-        Ok(Film::from_pixels(w, h, pixels))
-    }
 }
 
 fn scene_name(args: &ConvergeArgs) -> String {
@@ -213,15 +171,14 @@ fn scene_name(args: &ConvergeArgs) -> String {
 /// A log-log plot of RMSE against seconds, one line per sampler, written through a temporary file.
 fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Result<(), Box<dyn std::error::Error>> {
     use plotters::prelude::*;
-    let points: Vec<(f64, f64)> =
-        series.iter().flat_map(|s| s.1.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    let points: Vec<(f64, f64)> = series.iter().flat_map(|s| s.1.iter().copied()).filter(|&p| plottable(p)).collect();
     if points.is_empty() {
         return Err("no positive points to plot".into());
     }
     let (x0, x1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
     let (y0, y1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
     let tmp = path.with_file_name(format!(".convergence.{}.png", std::process::id()));
-    {
+    let draw = || -> Result<(), Box<dyn std::error::Error>> {
         let root = BitMapBackend::new(&tmp, (900, 600)).into_drawing_area();
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(&root)
@@ -241,10 +198,10 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
         for (i, (label, pts)) in series.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
             chart
-                .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+                .draw_series(LineSeries::new(pts.iter().copied().filter(|&p| plottable(p)), color.stroke_width(2)))?
                 .label(label.as_str())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2)));
-            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+            chart.draw_series(pts.iter().filter(|&&p| plottable(p)).map(|&p| Circle::new(p, 4, color.filled())))?;
         }
         chart
             .configure_series_labels()
@@ -253,11 +210,18 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
             .border_style(BLACK)
             .draw()?;
         root.present()?;
-    }
-    std::fs::rename(&tmp, path).inspect_err(|_| {
+        Ok(())
+    };
+    let result = draw().and_then(|()| Ok(std::fs::rename(&tmp, path)?));
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-    })?;
-    Ok(())
+    }
+    result
+}
+
+/// Whether a point can stand on the log-log axes.
+fn plottable((x, y): (f64, f64)) -> bool {
+    x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite()
 }
 
 /// Renders progressively (passes of 1, 1, 4, 4, 16, 16, ... samples) and keeps the image available

@@ -85,6 +85,9 @@ fn unwritable_output_exits_1_and_leaves_nothing() {
     let run = raylume().args(["render", "--width", "8", "--height", "8", "-o"]).arg(&out).output().unwrap();
     assert_eq!(run.status.code(), Some(1));
     assert!(!out.exists());
+    // Found before the render starts, not after it.
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("no folder") && !stderr.contains("rays (camera"), "{stderr}");
 }
 
 #[test]

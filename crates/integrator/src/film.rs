@@ -30,7 +30,30 @@ pub enum OutputError {
         /// The cause.
         source: image::ImageError,
     },
+    /// The image has no pixels.
+    #[error("{path}: the image is empty ({width}x{height})")]
+    Empty {
+        /// The output path.
+        path: PathBuf,
+        /// Width.
+        width: u32,
+        /// Height.
+        height: u32,
+    },
 }
+
+/// Why an image could not be read.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {message}")]
+pub struct InputError {
+    /// The file.
+    pub path: PathBuf,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+/// Largest image read, in pixels (the largest a render can make).
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 27;
 
 /// A rendered image: linear RGB floats, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -40,12 +63,48 @@ pub struct Film {
     pixels: Vec<Vec3>,
 }
 
-/// The image formats raylume writes.
+/// The image formats raylume writes and reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Format {
+pub enum ImageFormat {
+    /// 8-bit PNG, written as the course does.
     Png,
+    /// OpenEXR, linear 32-bit float.
     Exr,
+    /// Portable float map, linear 32-bit float.
     Pfm,
+}
+
+impl ImageFormat {
+    /// The format a file name's extension names.
+    ///
+    /// ```
+    /// use raylume_integrator::ImageFormat;
+    /// assert_eq!(ImageFormat::from_path("out.PFM".as_ref()).unwrap(), ImageFormat::Pfm);
+    /// assert!(ImageFormat::from_path("out.jpg".as_ref()).is_err());
+    /// ```
+    pub fn from_path(path: &Path) -> Result<Self, OutputError> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "png" => Ok(Self::Png),
+            "exr" => Ok(Self::Exr),
+            "pfm" => Ok(Self::Pfm),
+            _ => Err(OutputError::UnknownFormat { path: path.to_owned(), ext }),
+        }
+    }
+}
+
+/// The temporary files being written now, removed by [`remove_partial_outputs`].
+static PARTIAL: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Removes the temporary files of writes in progress, so that a process ended by a signal leaves
+/// either the previous file or the complete new one and nothing else. It holds the lock of the
+/// writers' renames until the process exits, so call it only on the way out (a signal handler).
+pub fn remove_partial_outputs() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    let mut partial = PARTIAL.lock().unwrap_or_else(|e| e.into_inner());
+    for tmp in partial.drain(..) {
+        let _ = std::fs::remove_file(tmp);
+    }
+    partial
 }
 
 impl Film {
@@ -91,24 +150,27 @@ impl Film {
 
     /// Writes the image in the format its extension names (`.png`: 8-bit; `.exr`, `.pfm`: linear
     /// float). The data go to a temporary file beside `path` that is renamed over it at the end, so
-    /// a failed or interrupted write never leaves a half-written image.
+    /// a failed or interrupted write never leaves a half-written image (see
+    /// [`remove_partial_outputs`] for signals).
     pub fn write(&self, path: &Path) -> Result<(), OutputError> {
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-        let format = match ext.as_str() {
-            "png" => Format::Png,
-            "exr" => Format::Exr,
-            "pfm" => Format::Pfm,
-            _ => {
-                return Err(OutputError::UnknownFormat { path: path.to_owned(), ext });
-            }
-        };
+        let format = ImageFormat::from_path(path)?;
+        if self.pixels.is_empty() {
+            return Err(OutputError::Empty { path: path.to_owned(), width: self.width, height: self.height });
+        }
         let io = |source| OutputError::Io { path: path.to_owned(), source };
         let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-        let result = self.encode(&tmp, format).and_then(|()| std::fs::rename(&tmp, path).map_err(io));
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
+        PARTIAL.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+        let encoded = self.encode(&tmp, format);
+        let result = {
+            let mut partial = PARTIAL.lock().unwrap_or_else(|e| e.into_inner());
+            let renamed = encoded.and_then(|()| std::fs::rename(&tmp, path).map_err(io));
+            if renamed.is_err() {
+                let _ = std::fs::remove_file(&tmp);
+            }
+            partial.retain(|p| p != &tmp);
+            renamed
+        };
         result.map_err(|e| match e {
             OutputError::Io { source, .. } => OutputError::Io { path: path.to_owned(), source },
             OutputError::Encode { source, .. } => OutputError::Encode { path: path.to_owned(), source },
@@ -116,20 +178,72 @@ impl Film {
         })
     }
 
-    fn encode(&self, tmp: &Path, format: Format) -> Result<(), OutputError> {
+    /// Reads a linear image: PFM (either byte order), OpenEXR, or PNG (8-bit values as `v / 255`).
+    /// Only regular files of at most [`MAX_IMAGE_PIXELS`] pixels are read.
+    pub fn read(path: &Path) -> Result<Film, InputError> {
+        let fail = |message: String| InputError { path: path.to_owned(), message };
+        let format = ImageFormat::from_path(path).map_err(|e| fail(e.to_string()))?;
+        let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+        if !meta.is_file() {
+            return Err(fail("not a regular file".to_owned()));
+        }
+        // 12 bytes per pixel is the most any of the formats can take, plus a header.
+        if meta.len() > MAX_IMAGE_PIXELS * 12 + (1 << 20) {
+            return Err(fail(format!("{} bytes is more than an image of {MAX_IMAGE_PIXELS} pixels", meta.len())));
+        }
+        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+        Self::decode(&bytes, format).map_err(fail)
+    }
+
+    /// Decodes an image of `format` from memory ([`Film::read`]).
+    ///
+    /// ```
+    /// use raylume_integrator::{Film, ImageFormat};
+    /// let mut pfm = b"PF\n1 1\n-1.0\n".to_vec();
+    /// for v in [0.5f32, 0.25, 1.0] {
+    ///     pfm.extend_from_slice(&v.to_le_bytes());
+    /// }
+    /// let film = Film::decode(&pfm, ImageFormat::Pfm).unwrap();
+    /// assert_eq!(film.pixel(0, 0).y, 0.25);
+    /// assert!(Film::decode(b"PF\n99999999 99999999\n-1.0\n", ImageFormat::Pfm).is_err());
+    /// ```
+    pub fn decode(bytes: &[u8], format: ImageFormat) -> Result<Film, String> {
+        match format {
+            ImageFormat::Pfm => decode_pfm(bytes),
+            ImageFormat::Exr | ImageFormat::Png => {
+                let format =
+                    if format == ImageFormat::Png { image::ImageFormat::Png } else { image::ImageFormat::OpenExr };
+                let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+                let mut limits = image::Limits::default();
+                limits.max_alloc = Some(MAX_IMAGE_PIXELS * 16);
+                reader.limits(limits);
+                let img = reader.decode().map_err(|e| e.to_string())?;
+                if img.width() as u64 * img.height() as u64 > MAX_IMAGE_PIXELS || img.width() == 0 || img.height() == 0
+                {
+                    return Err(format!("{}x{} pixels: expected 1 to {MAX_IMAGE_PIXELS}", img.width(), img.height()));
+                }
+                let img = img.into_rgb32f();
+                let (w, h) = img.dimensions();
+                let pixels = img.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+                Ok(Film::from_pixels(w, h, pixels))
+            }
+        }
+    }
+
+    fn encode(&self, tmp: &Path, format: ImageFormat) -> Result<(), OutputError> {
         let io = |source| OutputError::Io { path: tmp.to_owned(), source };
         let enc = |source| OutputError::Encode { path: tmp.to_owned(), source };
         match format {
-            Format::Png => {
+            ImageFormat::Png => {
                 let img = image::RgbImage::from_raw(self.width, self.height, self.to_rgb8()).expect("buffer size");
                 img.save_with_format(tmp, image::ImageFormat::Png).map_err(enc)
             }
-            Format::Exr => {
+            ImageFormat::Exr => {
                 let data = self.pixels.iter().flat_map(|c| c.to_array()).collect();
                 let img = image::Rgb32FImage::from_raw(self.width, self.height, data).expect("buffer size");
                 img.save_with_format(tmp, image::ImageFormat::OpenExr).map_err(enc)
             }
-            Format::Pfm => {
+            ImageFormat::Pfm => {
                 let file = std::fs::File::create(tmp).map_err(io)?;
                 let mut out = std::io::BufWriter::new(file);
                 write!(out, "PF\n{} {}\n-1.0\n", self.width, self.height).map_err(io)?;
@@ -145,4 +259,51 @@ impl Film {
             }
         }
     }
+}
+
+/// A colour PFM (`PF`, width, height, scale whose sign gives the byte order, rows bottom first).
+fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
+    let mut fields = Vec::new();
+    let mut pos = 0;
+    while fields.len() < 4 && pos < bytes.len() && pos < 256 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+    }
+    pos += 1;
+    if fields.len() < 4 || fields[0] != "PF" {
+        return Err("not a colour PFM file (expected 'PF', width, height and scale)".to_owned());
+    }
+    let size =
+        |s: &str, what: &str| s.parse::<u32>().map_err(|_| format!("expected the {what} in pixels, found '{s}'"));
+    let (w, h) = (size(&fields[1], "width")?, size(&fields[2], "height")?);
+    let scale: f32 = fields[3].parse().map_err(|_| format!("expected the scale, found '{}'", fields[3]))?;
+    if !scale.is_finite() || scale == 0.0 {
+        return Err(format!("expected a finite non-zero scale, found '{}'", fields[3]));
+    }
+    let n = w as u64 * h as u64;
+    if w == 0 || h == 0 || n > MAX_IMAGE_PIXELS {
+        return Err(format!("{w}x{h} pixels: expected 1 to {MAX_IMAGE_PIXELS}"));
+    }
+    let data = bytes.get(pos..).unwrap_or(&[]);
+    if data.len() as u64 != n * 12 {
+        return Err(format!("expected {w}x{h} pixels of 12 bytes ({} bytes), found {} bytes", n * 12, data.len()));
+    }
+    let read = |b: &[u8]| {
+        let b = [b[0], b[1], b[2], b[3]];
+        if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
+    };
+    let (w_, h_) = (w as usize, h as usize);
+    let mut pixels = vec![Vec3::ZERO; w_ * h_];
+    for (i, c) in data.chunks_exact(12).enumerate() {
+        // PFM rows are stored bottom first.
+        let (row, col) = (i / w_, i % w_);
+        pixels[(h_ - 1 - row) * w_ + col] = Vec3::new(read(&c[0..4]), read(&c[4..8]), read(&c[8..12]));
+    }
+    Ok(Film::from_pixels(w, h, pixels))
 }

@@ -35,8 +35,8 @@ pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
-pub use film::{Film, OutputError};
-pub use render::{RayStats, RenderSettings, render};
+pub use film::{Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs};
+pub use render::{MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, RayStats, RenderSettings, render};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};
 

@@ -9,6 +9,14 @@ use rayon::prelude::*;
 use crate::sampler::{SampleSource, Sampler};
 use crate::{Film, Integrator, World};
 
+/// Deepest ray tree a render traces ([`RenderSettings::max_depth`]): the integrator recurses once
+/// per level, and this many levels fit with a wide margin in the 2 MiB stack of a default thread.
+pub const MAX_DEPTH: u32 = 256;
+/// Most samples per pixel a render takes ([`RenderSettings::spp`]).
+pub const MAX_SPP: u32 = 1 << 16;
+/// Largest side of the grid of point lights that stands for an area light.
+pub const MAX_LIGHT_GRID: u32 = 64;
+
 /// Settings of a render that do not belong to the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -43,6 +51,33 @@ impl RenderSettings {
     /// Whether the render antialiases (more than one sample per pixel).
     pub fn antialiasing(&self) -> bool {
         self.strata() > 1
+    }
+
+    /// Checks the settings against the limits ([`MAX_DEPTH`], [`MAX_SPP`], [`MAX_LIGHT_GRID`]) and
+    /// the crop's order; the message names the setting and what it must be.
+    ///
+    /// ```
+    /// use raylume_integrator::RenderSettings;
+    /// assert!(RenderSettings::default().validate().is_ok());
+    /// let deep = RenderSettings { max_depth: 5000, ..RenderSettings::default() };
+    /// assert_eq!(deep.validate().unwrap_err(), "depth 5000: expected 1..=256");
+    /// ```
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=MAX_DEPTH).contains(&self.max_depth) {
+            return Err(format!("depth {}: expected 1..={MAX_DEPTH}", self.max_depth));
+        }
+        if self.spp > MAX_SPP {
+            return Err(format!("spp {}: expected 0..={MAX_SPP}", self.spp));
+        }
+        if !(1..=MAX_LIGHT_GRID).contains(&self.light_grid) {
+            return Err(format!("light grid {}: expected 1..={MAX_LIGHT_GRID}", self.light_grid));
+        }
+        if let Some([x0, y0, x1, y1]) = self.crop {
+            if x0 >= x1 || y0 >= y1 {
+                return Err(format!("crop {x0} {y0} {x1} {y1}: expected X0 < X1 and Y0 < Y1"));
+            }
+        }
+        Ok(())
     }
 }
 

@@ -39,9 +39,11 @@ impl Whitted<{ SoftShadows::NONE }> {
 }
 
 impl<const SOFT: u8> Whitted<SOFT> {
-    /// The integrator with the soft-shadow mode `SOFT`.
+    /// The integrator with the soft-shadow mode `SOFT`; a depth beyond [`crate::MAX_DEPTH`] is
+    /// traced to that depth (the stack holds one frame per level).
     pub fn with_soft_shadows(settings: &RenderSettings) -> Self {
-        Self { max_depth: settings.max_depth.max(1), fresnel: settings.fresnel, grid: settings.light_grid.max(1) }
+        let max_depth = settings.max_depth.clamp(1, crate::MAX_DEPTH);
+        Self { max_depth, fresnel: settings.fresnel, grid: settings.light_grid.clamp(1, crate::MAX_LIGHT_GRID) }
     }
 
     /// The light arriving from `light` at `above` (a point offset off the surface).

@@ -148,13 +148,14 @@ impl SceneBuilder {
         self
     }
 
-    /// The scene, or an error if it has no camera or an object precedes every material.
+    /// The scene, or an error if it has no camera, an object precedes every material, or it fails
+    /// [`Scene::validate`].
     pub fn build(self) -> Result<Scene, SceneError> {
         if let Some(e) = self.error {
             return Err(SceneError::Invalid(e));
         }
         let view = self.view.ok_or_else(|| SceneError::Invalid("the scene has no camera".to_owned()))?;
-        Ok(Scene {
+        let scene = Scene {
             view,
             background: self.background,
             env: self.env,
@@ -165,6 +166,8 @@ impl SceneBuilder {
             spp_hint: self.spp_hint,
             shutter: self.shutter,
             base_dir: None,
-        })
+        };
+        scene.validate()?;
+        Ok(scene)
     }
 }

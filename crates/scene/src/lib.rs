@@ -21,6 +21,7 @@
 mod builder;
 mod env;
 mod error;
+pub mod limits;
 mod model;
 pub mod obj;
 pub mod p3f;

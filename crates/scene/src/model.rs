@@ -182,3 +182,145 @@ impl Scene {
             .sum()
     }
 }
+
+impl Scene {
+    /// Checks that the scene can be rendered: a camera within the [`limits`](crate::limits), finite
+    /// numbers everywhere, radii and counts that make shapes, mesh and material indices in range.
+    /// [`crate::SceneBuilder::build`] and [`Scene::render`] call it, so a scene made in code meets
+    /// the same rules as a file.
+    ///
+    /// ```
+    /// use raylume_scene::SceneBuilder;
+    /// use raylume_geometry::Vec3A;
+    /// let scene = SceneBuilder::new()
+    ///     .camera(Vec3A::ZERO, Vec3A::ZERO, Vec3A::Y, 45.0, 64, 64)
+    ///     .build();
+    /// assert_eq!(scene.unwrap_err().to_string(), "camera: 'from' equals 'at'");
+    /// ```
+    pub fn validate(&self) -> Result<(), crate::SceneError> {
+        validate(self).map_err(crate::SceneError::Invalid)
+    }
+}
+
+fn finite(v: Vec3A) -> bool {
+    v.is_finite()
+}
+
+fn validate(s: &Scene) -> Result<(), String> {
+    use crate::limits::{MAX_LIGHT_GRID, MAX_PIXELS, MAX_RESOLUTION, MAX_SPP};
+    let v = &s.view;
+    if !(finite(v.from) && finite(v.at) && finite(v.up)) {
+        return Err("camera: 'from', 'at' and 'up' must be finite".to_owned());
+    }
+    if v.from == v.at {
+        return Err("camera: 'from' equals 'at'".to_owned());
+    }
+    if v.up.cross(v.from - v.at).length_squared() == 0.0 {
+        return Err("camera: 'up' is parallel to the view direction".to_owned());
+    }
+    if !(v.angle_deg > 0.0 && v.angle_deg < 180.0) {
+        return Err(format!("camera: angle {}: expected (0, 180) degrees", v.angle_deg));
+    }
+    if !(1..=MAX_RESOLUTION).contains(&v.width)
+        || !(1..=MAX_RESOLUTION).contains(&v.height)
+        || v.width as u64 * v.height as u64 > MAX_PIXELS
+    {
+        return Err(format!(
+            "camera: resolution {} x {}: each side must be 1..={MAX_RESOLUTION} and the image at most {MAX_PIXELS} pixels",
+            v.width, v.height
+        ));
+    }
+    if !v.hither.is_finite()
+        || !(v.aperture.is_finite() && v.aperture >= 0.0)
+        || !(v.focal.is_finite() && v.focal > 0.0)
+    {
+        return Err(format!(
+            "camera: hither {}, aperture {}, focal {}: expected finite, >= 0 and > 0",
+            v.hither, v.aperture, v.focal
+        ));
+    }
+    if !s.background.is_finite() {
+        return Err("the background colour must be finite".to_owned());
+    }
+    for (i, l) in s.lights.iter().enumerate() {
+        let shape_ok = match l.shape {
+            LightShape::Point => true,
+            LightShape::Square(size) => size.is_finite() && size >= 0.0,
+            LightShape::Parallelogram { ends, grid } => ends.iter().all(|&e| finite(e)) && grid <= MAX_LIGHT_GRID,
+        };
+        if !(finite(l.position) && l.color.is_finite() && shape_ok) {
+            return Err(format!("light {i}: expected finite numbers (and an area grid of at most {MAX_LIGHT_GRID})"));
+        }
+    }
+    for (i, m) in s.materials.iter().enumerate() {
+        let numbers = [m.kd, m.ks, m.shine, m.transmittance, m.ior, m.specular_scale, m.roughness];
+        if !(m.diffuse.is_finite() && m.specular.is_finite() && numbers.iter().all(|x| x.is_finite())) {
+            return Err(format!("material {i}: expected finite numbers"));
+        }
+        if m.transmittance > 0.0 && m.ior <= 0.0 {
+            return Err(format!("material {i}: a transparent material needs a positive index of refraction"));
+        }
+        if !(0.0..=1.0).contains(&m.roughness) {
+            return Err(format!("material {i}: roughness {}: expected [0, 1]", m.roughness));
+        }
+    }
+    for (i, o) in s.objects.iter().enumerate() {
+        if o.material as usize >= s.materials.len() {
+            return Err(format!("object {i}: material {} of {}", o.material, s.materials.len()));
+        }
+        shape_problem(&o.shape).map_or(Ok(()), |why| Err(format!("object {i}: {why}")))?;
+    }
+    if let Some(spp) = s.spp_hint.filter(|&n| n > MAX_SPP) {
+        return Err(format!("spp {spp}: expected 0..={MAX_SPP}"));
+    }
+    if let Some(a) = s.accel_hint.filter(|&a| a > 2) {
+        return Err(format!("accel {a}: expected 0 (none), 1 (grid) or 2 (BVH)"));
+    }
+    if let Some((t0, t1)) = s.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
+        return Err(format!("shutter [{t0}, {t1}] is not an interval"));
+    }
+    Ok(())
+}
+
+/// What makes a shape unrenderable, if anything.
+fn shape_problem(shape: &Shape) -> Option<String> {
+    let radius_ok = |r: f32| r.is_finite() && r > 0.0;
+    match shape {
+        Shape::Sphere { center, radius } => (!(finite(*center) && radius_ok(*radius)))
+            .then(|| format!("sphere: expected a finite centre and a positive radius, found {radius}")),
+        Shape::MovingSphere { center0, center1, radius, time0, time1 } => {
+            (!(finite(*center0) && finite(*center1) && radius_ok(*radius) && time0.is_finite() && time1.is_finite()))
+                .then(|| "moving sphere: expected finite centres and times and a positive radius".to_owned())
+        }
+        Shape::Box { min, max } => (!(finite(*min) && finite(*max) && min.cmple(*max).all()))
+            .then(|| "box: expected finite corners with min <= max".to_owned()),
+        Shape::Polygon(v) => (v.len() < 3 || !v.iter().all(|&p| finite(p)))
+            .then(|| format!("polygon: expected at least 3 finite vertices, found {}", v.len())),
+        Shape::Patch(v) => (v.len() < 3 || !v.iter().all(|&(p, n)| finite(p) && finite(n)))
+            .then(|| format!("patch: expected at least 3 finite vertices, found {}", v.len())),
+        Shape::Plane([p0, p1, p2]) => raylume_geometry::Plane::from_points(*p0, *p1, *p2)
+            .is_none()
+            .then(|| "plane: expected three finite points that are not collinear".to_owned()),
+        Shape::Cone { base, base_radius, apex, apex_radius } => {
+            let r_ok = |r: f32| r.is_finite() && r >= 0.0;
+            (!(finite(*base)
+                && finite(*apex)
+                && r_ok(*base_radius)
+                && r_ok(*apex_radius)
+                && (*base_radius > 0.0 || *apex_radius > 0.0)
+                && base != apex))
+                .then(|| "cone: expected finite, distinct ends and radii >= 0, not both 0".to_owned())
+        }
+        Shape::Mesh { vertices, triangles } => {
+            if let Some(k) = vertices.iter().position(|&p| !finite(p)) {
+                return Some(format!("mesh: vertex {k} is not finite"));
+            }
+            let n = vertices.len();
+            triangles.iter().enumerate().find_map(|(t, tri)| {
+                tri.iter()
+                    .find(|&&k| k as usize >= n)
+                    .map(|k| format!("mesh: triangle {t} refers to vertex {k} of {n}"))
+            })
+        }
+    }
+}

@@ -6,8 +6,7 @@ use raylume_geometry::Vec3A;
 
 use crate::{SceneError, Shape};
 
-/// Largest OBJ file read, in bytes.
-pub const MAX_OBJ_BYTES: u64 = 1 << 32;
+pub use crate::limits::MAX_OBJ_BYTES;
 
 /// Reads every model of an OBJ file into one triangle mesh ([`Shape::Mesh`]); polygons are
 /// triangulated, materials (and the MTL files they name, which are not opened) and texture

@@ -33,12 +33,7 @@ mod lexer;
 pub(crate) use lexer::shown;
 mod parser;
 
-/// Largest image side accepted, in pixels.
-pub const MAX_RESOLUTION: u32 = 16_384;
-/// Largest image accepted, in pixels.
-pub const MAX_PIXELS: u64 = 1 << 27;
-/// Largest scene file read, in bytes.
-pub const MAX_FILE_BYTES: u64 = 1 << 32;
+pub use crate::limits::{MAX_FILE_BYTES, MAX_PIXELS, MAX_RESOLUTION};
 
 /// How to load a file.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]

@@ -12,7 +12,7 @@ use raylume_integrator::{
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
-use crate::{LightShape, Scene, SceneError, Shape, Warning, load_cubemap, p3f};
+use crate::{LightShape, Scene, SceneError, Shape, Warning, limits, load_cubemap, p3f};
 
 /// How to render a scene: the integrator's settings plus overrides of what the scene file says.
 ///
@@ -65,6 +65,50 @@ pub enum SamplerKind {
     Independent,
     /// Owen-scrambled Sobol points (a low-discrepancy sequence).
     Sobol,
+}
+
+impl RenderOptions {
+    /// Checks the options that do not depend on a scene against the [`limits`]: the settings, the
+    /// resolution, every override's range, the grid's density. [`Scene::check`] adds what needs the
+    /// scene (its `spp`, the crop inside its image, the memory).
+    ///
+    /// ```
+    /// use raylume_scene::RenderOptions;
+    /// assert!(RenderOptions::default().validate().is_ok());
+    /// let huge = RenderOptions { resolution: Some((100_000, 100_000)), ..RenderOptions::default() };
+    /// assert!(huge.validate().unwrap_err().to_string().starts_with("resolution 100000 x 100000"));
+    /// ```
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let invalid = |m: String| Err(SceneError::Invalid(m));
+        self.settings.validate().map_err(SceneError::Invalid)?;
+        if let Some((w, h)) = self.resolution {
+            let side = 1..=limits::MAX_RESOLUTION;
+            if !side.contains(&w) || !side.contains(&h) || w as u64 * h as u64 > limits::MAX_PIXELS {
+                return invalid(format!(
+                    "resolution {w} x {h}: each side must be 1..={} and the image at most {} pixels",
+                    limits::MAX_RESOLUTION,
+                    limits::MAX_PIXELS
+                ));
+            }
+        }
+        if let Some(spp) = self.spp.filter(|&n| n > limits::MAX_SPP) {
+            return invalid(format!("spp {spp}: expected 0..={}", limits::MAX_SPP));
+        }
+        let check = |name: &str, v: Option<f32>, range: &str, ok: fn(f32) -> bool| match v {
+            Some(x) if !x.is_finite() || !ok(x) => invalid(format!("{name} {x}: expected {range}")),
+            _ => Ok(()),
+        };
+        check("area light size", self.area_light_size, "a finite number >= 0", |x| x >= 0.0)?;
+        check("roughness", self.roughness, "[0, 1]", |x| (0.0..=1.0).contains(&x))?;
+        check("aperture", self.aperture, "a finite number >= 0", |x| x >= 0.0)?;
+        check("focal distance", self.focal, "a finite number > 0", |x| x > 0.0)?;
+        check("specular scale", Some(self.specular_scale), "a finite number >= 0", |x| x >= 0.0)?;
+        check("grid density", Some(self.grid.k), "(0, 1000]", |k| k > 0.0 && k <= limits::MAX_GRID_K)?;
+        if let Some((t0, t1)) = self.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
+            return invalid(format!("shutter [{t0}, {t1}] is not an interval"));
+        }
+        Ok(())
+    }
 }
 
 impl Default for RenderOptions {
@@ -236,31 +280,13 @@ impl Scene {
     /// The scene as it will be rendered with `options`: its view, lights and materials with the
     /// overrides applied.
     fn prepared(&self, options: &RenderOptions) -> Result<Prepared, SceneError> {
+        self.validate()?;
+        options.validate()?;
         let mut view = self.view;
         if let Some((w, h)) = options.resolution {
-            if w == 0
-                || h == 0
-                || w > p3f::MAX_RESOLUTION
-                || h > p3f::MAX_RESOLUTION
-                || w as u64 * h as u64 > p3f::MAX_PIXELS
-            {
-                return Err(SceneError::Invalid(format!(
-                    "resolution {w} x {h}: each side must be 1..={} and the image at most {} pixels",
-                    p3f::MAX_RESOLUTION,
-                    p3f::MAX_PIXELS
-                )));
-            }
             view.width = w;
             view.height = h;
         }
-        let check = |name: &str, v: Option<f32>, ok: fn(f32) -> bool| match v {
-            Some(x) if !x.is_finite() || !ok(x) => Err(SceneError::Invalid(format!("{name} {x} is out of range"))),
-            _ => Ok(()),
-        };
-        check("area light size", options.area_light_size, |x| x >= 0.0)?;
-        check("roughness", options.roughness, |x| (0.0..=1.0).contains(&x))?;
-        check("aperture", options.aperture, |x| x >= 0.0)?;
-        check("focal distance", options.focal, |x| x > 0.0)?;
         view.aperture = options.aperture.unwrap_or(view.aperture);
         view.focal = options.focal.unwrap_or(view.focal);
         let lights = self
@@ -284,13 +310,30 @@ impl Scene {
                 ..*m
             })
             .collect();
-        let shutter = match options.shutter {
-            Some((t0, t1)) if t0.is_finite() && t1.is_finite() && t0 <= t1 => Interval::new(t0, t1),
-            Some((t0, t1)) => return Err(SceneError::Invalid(format!("shutter [{t0}, {t1}] is not an interval"))),
-            None => self.shutter(),
-        };
+        let shutter = options.shutter.map_or_else(|| self.shutter(), |(t0, t1)| Interval::new(t0, t1));
         let spp = options.spp.or(self.spp_hint.map(|s| s.max(1))).unwrap_or(options.settings.spp);
         let settings = RenderSettings { spp, ..options.settings };
+        settings.validate().map_err(SceneError::Invalid)?;
+        if let Some([x0, y0, x1, y1]) = settings.crop {
+            if x1 > view.width || y1 > view.height {
+                return Err(SceneError::Invalid(format!(
+                    "crop {x0} {y0} {x1} {y1}: expected pixels inside the {} x {} image",
+                    view.width, view.height
+                )));
+            }
+        }
+        let pixels = view.width as u64 * view.height as u64;
+        let bytes = limits::render_bytes(self.primitive_count() as u64, pixels);
+        if bytes > limits::MAX_RENDER_BYTES {
+            return Err(SceneError::Invalid(format!(
+                "the render would take about {:.1} GiB ({} primitives, {} x {} pixels), more than the {} GiB allowed",
+                bytes as f64 / (1u64 << 30) as f64,
+                self.primitive_count(),
+                view.width,
+                view.height,
+                limits::MAX_RENDER_BYTES >> 30
+            )));
+        }
         Ok(Prepared { view, lights, materials, shutter, settings })
     }
 
@@ -321,6 +364,13 @@ impl Scene {
             _ => None,
         };
         Ok(Background { color: self.background, env })
+    }
+
+    /// Checks that rendering with `options` can start: the scene ([`Scene::validate`]), the
+    /// settings and overrides against the [`limits`], the crop inside the image, and the memory the
+    /// render would take. [`Scene::render`] does the same before any work.
+    pub fn check(&self, options: &RenderOptions) -> Result<(), SceneError> {
+        self.prepared(options).map(|_| ())
     }
 
     /// What rendering with `options` uses.

@@ -1,0 +1,520 @@
+//! The `raylume` command line: renders p3f scenes, writes procedural ones, measures accelerators
+//! and convergence. The binary is [`run`]; [`check_arguments`] is its validation of a command line,
+//! everything it checks before any work starts.
+//!
+//! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 130
+//! ended by a signal (SIGINT, SIGTERM, SIGHUP), which leaves no partial output file.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use raylume_accel::AccelKind;
+use raylume_integrator::RenderSettings;
+use raylume_material::FresnelMode;
+use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, Scene, limits, p3f, procedural};
+
+mod bench;
+mod converge;
+
+#[derive(Parser)]
+#[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a p3f scene (the embedded default scene without SCENE) to an image.
+    Render(RenderArgs),
+    /// Write a procedural scene (balls, tetra, mount, rings) of the given size as p3f to stdout.
+    Gen {
+        /// balls (sphereflake), tetra, mount or rings.
+        name: String,
+        /// Recursion depth (balls, tetra, mount) or number of rings.
+        size: u32,
+    },
+    /// Measure an accelerator: build time, closest-hit and occlusion Mrays/s, size, primitives tested.
+    Bench(BenchCli),
+    /// Error against run time: render a reference, then each sample count with each sampler, and
+    /// write report/convergence.csv with the metrics and the time taken.
+    Converge(converge::ConvergeArgs),
+    /// Print the RMSE between two images of the same size (8-bit channels as values in [0, 1]).
+    Compare {
+        /// The first image.
+        a: PathBuf,
+        /// The second image.
+        b: PathBuf,
+    },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The p3f scene; without it, the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Render an OBJ mesh instead, framed by an automatic camera and light.
+    #[arg(long, conflicts_with = "scene")]
+    mesh: Option<PathBuf>,
+    /// Output image: .png (8-bit), .exr or .pfm (linear float).
+    #[arg(short, long, default_value = "out.png")]
+    output: PathBuf,
+    /// Samples per pixel (1: the pixel centre; more: jittered n x n strata, n = ceil(sqrt(spp))).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Maximum ray depth, counting the camera ray as 1.
+    #[arg(long, default_value_t = 4)]
+    depth: u32,
+    /// Accelerator (bvh: binned SAH; bvh-midpoint: the course's build; grid: uniform grid with
+    /// mailboxing); by default the scene's `accel` hint, else bvh.
+    #[arg(long, value_enum)]
+    accel: Option<AccelArg>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of the random samples.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Image width (overrides the scene's; give --height too).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Image height (overrides the scene's; give --width too).
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Treat warnings (unknown tags) as errors.
+    #[arg(long)]
+    strict: bool,
+    /// A further folder to look for the scene's `env` cubemap in.
+    #[arg(long)]
+    env_dir: Vec<PathBuf>,
+    /// Ignore the scene's cubemap: escaping rays return the background colour.
+    #[arg(long)]
+    no_env: bool,
+    /// Use Schlick's approximation instead of the exact Fresnel equations.
+    #[arg(long)]
+    schlick: bool,
+    /// Scale of the specular highlight (1: the plain model).
+    #[arg(long, default_value_t = 1.0)]
+    specular_scale: f32,
+    /// Soft shadows: make every light a square area light of this side (0: point lights).
+    #[arg(long, value_name = "SIZE")]
+    area_light: Option<f32>,
+    /// Side of the grid of point lights standing for an area light without antialiasing.
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    light_grid: u32,
+    /// Fuzzy reflections: the roughness of every reflective material, in [0, 1].
+    #[arg(long)]
+    roughness: Option<f32>,
+    /// Depth of field: the lens diameter in pixel sizes (0: pinhole).
+    #[arg(long)]
+    aperture: Option<f32>,
+    /// Depth of field: the focal distance as a ratio of the view-plane distance.
+    #[arg(long)]
+    focal: Option<f32>,
+    /// Density of the uniform grid: about K cells per primitive.
+    #[arg(long, default_value_t = 2.0, value_name = "K")]
+    grid_k: f32,
+    /// The sampler of antialiased renders.
+    #[arg(long, value_enum, default_value = "jittered")]
+    sampler: SamplerArg,
+    /// Motion blur: the shutter interval.
+    #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
+    shutter: Option<Vec<f32>>,
+    /// Render only the pixels in [X0, X1) x [Y0, Y1) (row 0 at the top); they equal the full image's.
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
+    crop: Option<Vec<u32>>,
+}
+
+#[derive(clap::Args)]
+struct BenchCli {
+    /// A p3f scene (or give --mesh or --gen).
+    scene: Option<PathBuf>,
+    /// An OBJ mesh, framed by an automatic camera.
+    #[arg(long, conflicts_with = "scene")]
+    mesh: Option<PathBuf>,
+    /// A procedural scene: NAME SIZE (e.g. balls 4).
+    #[arg(long = "gen", num_args = 2, value_names = ["NAME", "SIZE"], conflicts_with_all = ["scene", "mesh"])]
+    procedural: Option<Vec<String>>,
+    /// The rays: camera (coherent) or random (incoherent).
+    #[arg(long, value_enum, default_value = "camera")]
+    rays: bench::RayKind,
+    /// Number of rays (camera rays: rounded to a square view).
+    #[arg(long, default_value_t = 1 << 20)]
+    count: usize,
+    /// Accelerator.
+    #[arg(long, value_enum, default_value = "bvh")]
+    accel: AccelArg,
+    /// Density of the uniform grid: about K cells per primitive.
+    #[arg(long, default_value_t = 2.0, value_name = "K")]
+    grid_k: f32,
+    /// Worker threads (default 1, the single-ray figure).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Seed of the random rays.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Trace the rays through the batch queries in runs of 64, the camera rays in tiles of 8x8.
+    #[arg(long)]
+    batch: bool,
+    /// Trace the rays of this ray file instead.
+    #[arg(long)]
+    read_rays: Option<PathBuf>,
+    /// Save the rays traced to this file.
+    #[arg(long)]
+    write_rays: Option<PathBuf>,
+    /// Save each ray's closest hit (t, primitive) to this file.
+    #[arg(long)]
+    write_hits: Option<PathBuf>,
+    /// Runs of each measurement; the best is reported.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SamplerArg {
+    Jittered,
+    Independent,
+    Sobol,
+}
+
+impl From<SamplerArg> for SamplerKind {
+    fn from(s: SamplerArg) -> Self {
+        match s {
+            SamplerArg::Jittered => SamplerKind::Jittered,
+            SamplerArg::Independent => SamplerKind::Independent,
+            SamplerArg::Sobol => SamplerKind::Sobol,
+        }
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum AccelArg {
+    None,
+    Bvh,
+    BvhPortable,
+    BvhMidpoint,
+    Grid,
+}
+
+/// An error and the exit code it gets.
+pub(crate) struct Failure {
+    pub(crate) code: u8,
+    pub(crate) message: String,
+}
+
+pub(crate) fn bad_input(message: impl ToString) -> Failure {
+    Failure { code: 2, message: message.to_string() }
+}
+
+/// Exit code of a run ended by a signal.
+pub const INTERRUPTED: u8 = 130;
+
+/// Runs the command line of this process and returns its exit code.
+pub fn run() -> ExitCode {
+    // A signal removes the temporary file of a write in progress, so that only the previous file or
+    // the complete new one is ever left.
+    let _ = ctrlc::set_handler(|| {
+        let _held = raylume_integrator::remove_partial_outputs();
+        eprintln!("raylume: interrupted");
+        std::process::exit(INTERRUPTED as i32);
+    });
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render(args),
+        Command::Compare { a, b } => compare(&a, &b),
+        Command::Gen { name, size } => generate(&name, size),
+        Command::Bench(args) => bench_command(args),
+        Command::Converge(args) => converge::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("raylume: error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+/// Checks a command line (`args` without the program name) as [`run`] does before any work:
+/// its syntax, every flag against the [`limits`], the output's format and folder. Files are not
+/// read and nothing is written.
+///
+/// ```
+/// use raylume_cli::check_arguments;
+/// assert!(check_arguments(["render", "--spp", "16", "-o", "out.png"]).is_ok());
+/// assert_eq!(check_arguments(["render", "--spp", "4294967295"]).unwrap_err(), "spp 4294967295: expected 0..=65536");
+/// assert!(check_arguments(["render", "--threads", "10000"]).unwrap_err().starts_with("--threads 10000"));
+/// ```
+pub fn check_arguments<I, T>(args: I) -> Result<(), String>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let argv = std::iter::once(std::ffi::OsString::from("raylume")).chain(args.into_iter().map(Into::into));
+    let cli = Cli::try_parse_from(argv).map_err(|e| e.to_string())?;
+    let checked = match &cli.command {
+        Command::Render(args) => render_options(args).and_then(|_| check_output(&args.output, false)),
+        Command::Bench(args) => bench_limits(args),
+        _ => Ok(()),
+    };
+    checked.map_err(|f| f.message)
+}
+
+/// The threads flag within its limit.
+fn check_threads(threads: Option<usize>) -> Result<(), Failure> {
+    match threads {
+        Some(n) if !(1..=limits::MAX_THREADS).contains(&n) => {
+            Err(bad_input(format!("--threads {n}: expected 1..={}", limits::MAX_THREADS)))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The output can be written: a format raylume writes, into a folder that exists (and, with
+/// `probe`, that takes a new file).
+fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
+    raylume_integrator::ImageFormat::from_path(path).map_err(bad_input)?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        let message = format!("{}: no folder '{}' to write into", path.display(), dir.display());
+        return Err(Failure { code: 1, message });
+    }
+    if probe {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let test = dir.join(format!(".{name}.{}.probe", std::process::id()));
+        std::fs::File::create(&test).map_err(|e| Failure {
+            code: 1,
+            message: format!("{}: cannot write into '{}': {e}", path.display(), dir.display()),
+        })?;
+        let _ = std::fs::remove_file(&test);
+    }
+    Ok(())
+}
+
+/// The render's options from its flags, checked against the limits (nothing depends on the scene).
+fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
+    check_threads(args.threads)?;
+    let settings = RenderSettings {
+        max_depth: args.depth,
+        seed: args.seed,
+        fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
+        light_grid: args.light_grid,
+        crop: args.crop.as_ref().map(|c| [c[0], c[1], c[2], c[3]]),
+        ..RenderSettings::default()
+    };
+    let options = RenderOptions {
+        settings,
+        spp: args.spp,
+        strict: args.strict,
+        accel: args.accel.map(accel_kind),
+        resolution: args.width.zip(args.height),
+        env_dirs: args.env_dir.clone(),
+        use_env: !args.no_env,
+        specular_scale: args.specular_scale,
+        area_light_size: args.area_light,
+        roughness: args.roughness,
+        aperture: args.aperture,
+        focal: args.focal,
+        shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
+        grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
+        sampler: args.sampler.into(),
+    };
+    options.validate().map_err(bad_input)?;
+    Ok(options)
+}
+
+/// A scene that did not load: the warnings found before the error are printed first.
+pub(crate) fn load_failure(e: raylume_scene::SceneError) -> Failure {
+    for w in e.warnings() {
+        eprintln!("{w}");
+    }
+    bad_input(e)
+}
+
+fn render(args: RenderArgs) -> Result<(), Failure> {
+    // Everything the flags alone decide is checked before the scene is read.
+    let mut render_options = render_options(&args)?;
+    check_output(&args.output, true)?;
+    let options = p3f::LoadOptions { strict: args.strict, env_dirs: args.env_dir.clone(), ..Default::default() };
+    let (scene, warnings, summary) = match (&args.scene, &args.mesh) {
+        (_, Some(mesh)) => {
+            let mesh = raylume_scene::obj::load(mesh).map_err(bad_input)?;
+            (procedural::mesh_view(mesh, 512, 512), Vec::new(), None)
+        }
+        (scene, None) => {
+            let loaded = match scene {
+                Some(path) => p3f::load(path, &options),
+                None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options),
+            }
+            .map_err(load_failure)?;
+            let summary = scene.as_ref().map(|path| format!("{}: {}", path.display(), loaded.summary()));
+            (loaded.scene, loaded.warnings, summary)
+        }
+    };
+    for w in &warnings {
+        eprintln!("{w}");
+    }
+    if let Some(summary) = summary {
+        eprintln!("raylume: {summary}");
+    }
+    // A cubemap the loader did not find was reported with its line: render with the background.
+    if let Some(name) = &scene.env {
+        render_options.use_env &= raylume_scene::find_cubemap(name, &scene.env_search_dirs(&render_options)).is_ok();
+    }
+    // What depends on the scene (its spp, the crop inside its image, the memory) before any work.
+    scene.check(&render_options).map_err(bad_input)?;
+    let spp = scene.samples_per_pixel(&render_options).map_err(bad_input)?;
+    render_options.settings.spp = spp;
+    let settings = render_options.settings;
+    let n = settings.strata();
+    if spp > 1 && n * n != spp {
+        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
+    }
+    let features = scene.features(&render_options).map_err(bad_input)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .stack_size(RENDER_STACK_BYTES)
+        .build()
+        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let h = render_options.resolution.map_or(scene.view.height, |r| r.1);
+    let rows = settings.crop.map_or(h, |c| c[3].min(h).saturating_sub(c[1]));
+    let bar = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(rows as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
+                .expect("valid template"),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
+    bar.finish_and_clear();
+    for w in &out.warnings {
+        eprintln!("{w}");
+    }
+    out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let s = out.stats;
+    let total = out.build_seconds + out.render_seconds;
+    let (w, h) = (out.film.width(), out.film.height());
+    eprintln!(
+        "raylume: wrote {} ({w}x{h}, {} spp, effects: {features}, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
+        args.output.display(),
+        n * n,
+        out.accel,
+        pool.current_num_threads(),
+        total,
+        out.build_seconds,
+        out.render_seconds
+    );
+    eprintln!(
+        "raylume: {} rays (camera {}, shadow {}, reflection {}, refraction {}), {:.2} Mrays/s",
+        s.total(),
+        s.camera,
+        s.shadow,
+        s.reflection,
+        s.refraction,
+        s.total() as f64 / out.render_seconds.max(1e-9) / 1e6
+    );
+    Ok(())
+}
+
+/// Stack of each render thread: the ray tree's recursion to `limits::MAX_DEPTH` with room to spare.
+const RENDER_STACK_BYTES: usize = 8 << 20;
+
+fn scene_render(
+    scene: &Scene,
+    options: &RenderOptions,
+    bar: &ProgressBar,
+) -> Result<raylume_scene::RenderOutput, Failure> {
+    scene.render(options, &|| bar.inc(1)).map_err(bad_input)
+}
+
+fn accel_kind(a: AccelArg) -> AccelKind {
+    match a {
+        AccelArg::None => AccelKind::None,
+        AccelArg::Bvh => AccelKind::Bvh,
+        AccelArg::BvhPortable => AccelKind::BvhPortable,
+        AccelArg::BvhMidpoint => AccelKind::BvhMidpoint,
+        AccelArg::Grid => AccelKind::Grid,
+    }
+}
+
+fn generate(name: &str, size: u32) -> Result<(), Failure> {
+    let generator: procedural::Generator = name.parse().map_err(bad_input)?;
+    let scene = generator.generate(size).map_err(bad_input)?;
+    let mut out = std::io::stdout().lock();
+    std::io::Write::write_all(&mut out, scene.to_p3f().as_bytes())
+        .map_err(|e| Failure { code: 1, message: e.to_string() })
+}
+
+/// The bench's flags within their limits (before a scene is read).
+fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
+    check_threads(Some(args.threads))?;
+    if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= limits::MAX_GRID_K) {
+        return Err(bad_input(format!("--grid-k {}: expected a number in (0, {}]", args.grid_k, limits::MAX_GRID_K)));
+    }
+    if args.count == 0 || args.count > 1 << 28 {
+        return Err(bad_input(format!("--count {}: expected 1..=2^28 rays", args.count)));
+    }
+    if args.repeat == 0 || args.repeat > 1000 {
+        return Err(bad_input(format!("--repeat {}: expected 1..=1000", args.repeat)));
+    }
+    Ok(())
+}
+
+fn bench_command(args: BenchCli) -> Result<(), Failure> {
+    bench_limits(&args)?;
+    let scene = if let Some(path) = &args.mesh {
+        let mesh = raylume_scene::obj::load(path).map_err(bad_input)?;
+        procedural::mesh_view(mesh, 1024, 1024)
+    } else if let Some(g) = &args.procedural {
+        let size: u32 = g[1].parse().map_err(|_| bad_input(format!("--gen {} {}: expected a size", g[0], g[1])))?;
+        g[0].parse::<procedural::Generator>().and_then(|g| g.generate(size)).map_err(bad_input)?
+    } else if let Some(path) = &args.scene {
+        p3f::load(path, &p3f::LoadOptions::default()).map_err(load_failure)?.scene
+    } else {
+        return Err(bad_input("give a SCENE, --mesh FILE or --gen NAME SIZE"));
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let run = bench::BenchArgs {
+        scene,
+        accel: accel_kind(args.accel),
+        grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
+        rays: args.rays,
+        count: args.count,
+        seed: args.seed,
+        batch: args.batch,
+        read_rays: args.read_rays,
+        write_rays: args.write_rays,
+        write_hits: args.write_hits,
+        repeat: args.repeat,
+    };
+    pool.install(|| bench::run(run))
+}
+
+fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
+    let load = |p: &Path| image::open(p).map(|i| i.into_rgb8()).map_err(|e| bad_input(format!("{}: {e}", p.display())));
+    let (ia, ib) = (load(a)?, load(b)?);
+    if ia.dimensions() != ib.dimensions() {
+        return Err(bad_input(format!(
+            "{} is {:?} but {} is {:?}: sizes differ",
+            a.display(),
+            ia.dimensions(),
+            b.display(),
+            ib.dimensions()
+        )));
+    }
+    let to_f = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>();
+    let rmse = raylume_integrator::metrics::rmse(&to_f(&ia), &to_f(&ib)).unwrap_or(0.0);
+    println!("rmse {rmse:.6} ({:.3} of 255)", rmse * 255.0);
+    Ok(())
+}
