@@ -408,3 +408,108 @@ fn every_dialect_renders_from_the_command_line_and_says_which_it_read() {
     assert_eq!(strict.status.code(), Some(2));
     assert!(!dir.join("b.png").exists());
 }
+
+/// Flags beyond the limits are refused before any work, and nothing is written.
+#[test]
+fn flags_beyond_the_limits_exit_2_before_any_work() {
+    let dir = temp_dir("limits");
+    let out = dir.join("out.pfm");
+    let cases: &[(&[&str], &str)] = &[
+        (&["--spp", "4294967295"], "spp 4294967295: expected 0..=65536"),
+        (&["--threads", "10000"], "--threads 10000: expected 1..=1024"),
+        (&["--threads", "0"], "--threads 0: expected 1..=1024"),
+        (&["--depth", "5000"], "depth 5000: expected 1..=256"),
+        (&["--light-grid", "0"], "light grid 0: expected 1..=64"),
+        (&["--crop", "10", "0", "5", "4"], "crop 10 0 5 4: expected X0 < X1 and Y0 < Y1"),
+        (&["--crop", "700", "0", "710", "4"], "crop 700 0 710 4: expected pixels inside the 640 x 400 image"),
+        (&["--crop", "0", "390", "8", "410"], "crop 0 390 8 410: expected pixels inside the 640 x 400 image"),
+        (&["--shutter", "1", "0"], "shutter [1, 0] is not an interval"),
+    ];
+    for (flags, message) in cases {
+        let run = raylume().arg("render").args(*flags).arg("-o").arg(&out).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{flags:?}: {stderr}");
+        assert!(stderr.contains(message), "{flags:?}: {stderr}");
+        assert!(!stderr.contains("rays (camera"), "{flags:?} refused before rendering: {stderr}");
+        assert!(
+            raylume_cli::check_arguments(["render"].iter().chain(flags.iter())).is_err() || message.contains("image")
+        );
+    }
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+fn write_pfm(path: &std::path::Path, w: u32, h: u32, pixel: impl Fn(u32) -> [f32; 3]) {
+    let mut bytes = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    for i in 0..w * h {
+        for v in pixel(i) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn converge_refuses_references_that_are_not_finite_or_lie_about_their_size() {
+    let dir = temp_dir("converge-bad");
+    let reference = dir.join("ref.pfm");
+    write_pfm(&reference, 8, 4, |i| if i == 13 { [f32::INFINITY, 0.0, 0.0] } else { [0.5; 3] });
+    let converge = |reference: &std::path::Path| {
+        raylume()
+            .args([
+                "converge",
+                "--width",
+                "8",
+                "--height",
+                "4",
+                "--spp-list",
+                "1",
+                "--sampler",
+                "jittered",
+                "--reference",
+            ])
+            .arg(reference)
+            .arg("-o")
+            .arg(dir.join("report"))
+            .output()
+            .unwrap()
+    };
+    let run = converge(&reference);
+    assert_eq!(run.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("ref.pfm: pixel (5, 2) (row 0 at the top) is [inf, 0, 0]: a reference must be finite"),
+        "{stderr}"
+    );
+    // A header whose width x height x 12 wraps around in 32 bits.
+    let lying = dir.join("lying.pfm");
+    std::fs::write(&lying, b"PF\n1431655766 1\n-1.0\n\0\0\0\0\0\0\0\0").unwrap();
+    let run = converge(&lying);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("lying.pfm: 1431655766x1 pixels: expected 1 to 134217728"));
+}
+
+#[test]
+fn converge_writes_its_rows_even_when_the_plot_cannot_be_drawn() {
+    // Nothing but a background: every render equals the reference, so every error is 0 and a
+    // log-log plot has no point to draw.
+    let dir = temp_dir("converge-flat");
+    let scene = dir.join("flat.p3f");
+    std::fs::write(&scene, "bclr 0.25 0.5 0.75\nv from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 6 4\n")
+        .unwrap();
+    let report = dir.join("report");
+    let run = raylume()
+        .arg("converge")
+        .arg(&scene)
+        .args(["--reference-spp", "4", "--spp-list", "1,4", "--sampler", "jittered,sobol", "-o"])
+        .arg(&report)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("no positive points to plot"), "{stderr}");
+    let csv = std::fs::read_to_string(report.join("convergence.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "a header and four rows: {csv}");
+    assert!(!report.join("convergence.png").exists());
+    let leftovers: Vec<_> = std::fs::read_dir(&report).unwrap().filter_map(|e| e.ok()).map(|e| e.file_name()).collect();
+    assert_eq!(leftovers.len(), 2, "the CSV and the reference only: {leftovers:?}");
+}

@@ -433,8 +433,8 @@ impl Scene {
         passes: &[u32],
         on_pass: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
     ) -> Result<RenderOutput, SceneError> {
-        if passes.is_empty() || passes.contains(&0) {
-            return Err(SceneError::Invalid("progressive passes need at least one sample each".to_owned()));
+        if passes.is_empty() || passes.iter().any(|&n| n == 0 || n > limits::MAX_SPP) {
+            return Err(SceneError::Invalid(format!("progressive passes need 1..={} samples each", limits::MAX_SPP)));
         }
         self.render_passes(options, &|| {}, Some((passes, on_pass)))
     }

@@ -1,0 +1,175 @@
+//! Faults while writing: a signal at any moment, a full disk, a read-only folder, a folder that
+//! refuses new files. Each leaves either the previous file or the complete new one, and nothing
+//! else, with a clear message and exit code.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+fn raylume() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_raylume"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("raylume-faults-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The files in `dir` other than `keep`.
+fn others(dir: &Path, keep: &[&str]) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !keep.contains(&n.as_str()))
+        .collect()
+}
+
+/// A scene with nothing but its background: rendering is quick, writing its large PFM is not.
+fn background_scene(dir: &Path, side: u32) -> PathBuf {
+    let scene = dir.join("empty.p3f");
+    std::fs::write(
+        &scene,
+        format!("bclr 0.2 0.3 0.4\nv from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution {side} {side}\n"),
+    )
+    .unwrap();
+    scene
+}
+
+fn signal(pid: u32, name: &str) {
+    let status = Command::new("kill").arg(format!("-{name}")).arg(pid.to_string()).status().unwrap();
+    assert!(status.success());
+}
+
+#[test]
+fn a_signal_at_any_moment_leaves_the_previous_file_or_the_complete_new_one() {
+    let dir = temp_dir("signal");
+    let side = 2000;
+    let scene = background_scene(&dir, side);
+    let out = dir.join("out.pfm");
+    let complete = ("PF\n2000 2000\n-1.0\n".len() + 2000 * 2000 * 12) as u64;
+    // How long a whole run takes here, to spread the signals over it.
+    let start = Instant::now();
+    assert!(raylume().arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap().status.success());
+    let whole = start.elapsed();
+    assert_eq!(std::fs::metadata(&out).unwrap().len(), complete);
+    let previous = std::fs::read(&out).unwrap();
+    let mut interrupted = 0;
+    for (i, sig) in ["INT", "TERM", "INT", "TERM", "INT", "TERM", "INT", "TERM", "INT", "TERM"].iter().enumerate() {
+        let at = whole.mul_f64(0.3 + 0.08 * i as f64);
+        let mut child = raylume()
+            .args(["render", "--seed", &(i + 1).to_string()])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(at);
+        signal(child.id(), sig);
+        let status = child.wait().unwrap();
+        if status.code() == Some(130) {
+            interrupted += 1;
+        } else {
+            assert!(status.success(), "SIG{sig} after {at:?}: {status:?}");
+        }
+        assert_eq!(others(&dir, &["empty.p3f", "out.pfm"]), Vec::<String>::new(), "SIG{sig} after {at:?}");
+        // The background is the same for every seed: the file is the previous one or an equal new one.
+        assert_eq!(std::fs::metadata(&out).unwrap().len(), complete, "SIG{sig} after {at:?}");
+        assert!(std::fs::read(&out).unwrap() == previous);
+    }
+    println!("{interrupted} of 10 runs were interrupted (a whole run takes {whole:?})");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A small file system of our own (root only), or a printed reason to skip.
+struct Mounted(PathBuf);
+
+impl Mounted {
+    fn tmpfs(dir: &Path, options: &str) -> Option<Self> {
+        let ok = Command::new("mount").args(["-t", "tmpfs", "-o", options, "tmpfs"]).arg(dir).output();
+        match ok {
+            Ok(o) if o.status.success() => Some(Self(dir.to_owned())),
+            Ok(o) => {
+                println!("skipped: cannot mount a tmpfs here ({})", String::from_utf8_lossy(&o.stderr).trim());
+                None
+            }
+            Err(e) => {
+                println!("skipped: no mount command ({e})");
+                None
+            }
+        }
+    }
+}
+
+impl Drop for Mounted {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+#[test]
+fn a_full_disk_exits_1_keeps_the_previous_file_and_leaves_nothing_else() {
+    let dir = temp_dir("full");
+    let scene = background_scene(&dir, 8);
+    let disk = dir.join("disk");
+    std::fs::create_dir_all(&disk).unwrap();
+    let Some(_mounted) = Mounted::tmpfs(&disk, "size=64k") else { return };
+    let out = disk.join("out.pfm");
+    assert!(raylume().arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap().status.success());
+    let previous = std::fs::read(&out).unwrap();
+    // 200 x 200 pixels of 12 bytes do not fit in 64 KiB.
+    let run = raylume().args(["render", "--width", "200", "--height", "200"]).arg(&scene).arg("-o").arg(&out).output();
+    let run = run.unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("out.pfm") && stderr.contains("No space left on device"), "{stderr}");
+    assert_eq!(std::fs::read(&out).unwrap(), previous);
+    assert_eq!(others(&disk, &["out.pfm"]), Vec::<String>::new());
+}
+
+#[test]
+fn a_read_only_folder_exits_1_before_rendering() {
+    let dir = temp_dir("readonly");
+    let scene = background_scene(&dir, 8);
+    let ro = dir.join("ro");
+    std::fs::create_dir_all(&ro).unwrap();
+    let Some(_mounted) = Mounted::tmpfs(&ro, "ro,size=64k") else { return };
+    let run = raylume().arg("render").arg(&scene).arg("-o").arg(ro.join("out.png")).output().unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("cannot write into") && stderr.contains("Read-only file system"), "{stderr}");
+    assert!(!stderr.contains("rays (camera"), "refused before the render: {stderr}");
+    assert_eq!(others(&ro, &[]), Vec::<String>::new());
+}
+
+#[test]
+fn a_folder_that_refuses_new_files_exits_1_before_rendering() {
+    // sysfs refuses new files even to root.
+    if !Path::new("/sys/kernel").is_dir() {
+        println!("skipped: no /sys here");
+        return;
+    }
+    let dir = temp_dir("denied");
+    let scene = background_scene(&dir, 8);
+    let run = raylume().arg("render").arg(&scene).arg("-o").arg("/sys/kernel/raylume-out.png").output().unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("cannot write into '/sys/kernel'"), "{stderr}");
+    assert!(!Path::new("/sys/kernel/raylume-out.png").exists());
+}
+
+#[test]
+fn an_interrupted_render_before_the_write_leaves_nothing() {
+    let dir = temp_dir("early");
+    let scene = background_scene(&dir, 1500);
+    let out = dir.join("out.exr");
+    let mut child = raylume().arg("render").arg(&scene).arg("-o").arg(&out).spawn().unwrap();
+    std::thread::sleep(Duration::from_millis(30));
+    signal(child.id(), "INT");
+    let status = child.wait().unwrap();
+    assert!(status.code() == Some(130) || status.success(), "{status:?}");
+    assert_eq!(others(&dir, &["empty.p3f", "out.exr"]), Vec::<String>::new());
+}
