@@ -253,7 +253,10 @@ fn malformed_variants_say_what_was_expected() {
             "accel kdtree\n".to_owned(),
             "x.p3f:1:7: expected an accelerator (0 or none, 1 or grid, 2 or bvh), found 'kdtree'",
         ),
-        (format!("{CAMERA}{f}npl 0 0 0 1\n"), "x.p3f:3:1: expected a plane normal that is not zero"),
+        (
+            format!("{CAMERA}{f}npl 0 0 0 1\n"),
+            "x.p3f:3:1: expected a plane normal that is not zero and a plane at a finite distance",
+        ),
         (format!("{CAMERA}{f}c 0 0 0 0 0 1 0 -0\n"), "x.p3f:3:1: expected cone radii that are not both 0"),
         ("b 0.1 0.2\nv".to_owned(), "x.p3f:2:1: expected a number (background colour b), found 'v'"),
         ("v\nfrom 0 0 5\nat 0 0 0\nupp 0 1 0\n".to_owned(), "x.p3f:4:1: expected 'up', found 'upp'"),

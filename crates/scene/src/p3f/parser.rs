@@ -289,7 +289,10 @@ impl<'a, 'f> Parser<'a, 'f> {
                 let n = self.vec3("plane normal")?;
                 let d = self.number("plane offset D")?;
                 let Some(points) = plane_points(n, d) else {
-                    return Err(self.error(tag, "expected a plane normal that is not zero".to_owned()));
+                    return Err(self.error(
+                        tag,
+                        "expected a plane normal that is not zero and a plane at a finite distance".to_owned(),
+                    ));
                 };
                 Entity::Object(Shape::Plane(points))
             }
@@ -471,8 +474,8 @@ impl<'a, 'f> Parser<'a, 'f> {
             return Err(self.error(tag, "expected an area light direction that is not zero".to_owned()));
         };
         let up = if a.cross(Vec3A::Y).length_squared() > 1e-6 { Vec3A::Y } else { Vec3A::Z };
-        let u = a.cross(up).normalize() * width;
-        let v = u.cross(a).normalize() * height;
+        let across = a.cross(up).normalize();
+        let (u, v) = (across * width, across.cross(a) * height);
         let corner = center - (u + v) * 0.5;
         Ok(Light {
             position: corner,
@@ -667,16 +670,19 @@ impl<'a, 'f> Parser<'a, 'f> {
     }
 }
 
-/// Three points of the plane `n · x + d = 0` whose winding gives back the normal's direction.
+/// Three points of the plane `n · x + d = 0` whose winding gives back the normal's direction, if
+/// they are finite in f32.
 fn plane_points(n: Vec3A, d: f32) -> Option<[Vec3A; 3]> {
-    let len2 = n.length_squared();
-    if !(len2 > 0.0 && len2.is_finite()) {
+    let n = n.as_dvec3();
+    let len = n.length();
+    if !(len > 0.0 && len.is_finite()) {
         return None;
     }
-    let p0 = n * (-d / len2);
-    let unit = n / len2.sqrt();
-    let helper = if unit.x.abs() < 0.9 { Vec3A::X } else { Vec3A::Y };
+    let unit = n / len;
+    let p0 = unit * (-(d as f64) / len);
+    let helper = if unit.x.abs() < 0.9 { glam::DVec3::X } else { glam::DVec3::Y };
     let u = helper.cross(unit).normalize();
     let v = unit.cross(u);
-    Some([p0, p0 + u, p0 + v])
+    let points = [p0, p0 + u, p0 + v].map(|p| p.as_vec3a());
+    points.iter().all(|p| p.is_finite()).then_some(points)
 }
