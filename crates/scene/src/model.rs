@@ -230,10 +230,8 @@ fn validate(s: &Scene) -> Result<(), String> {
             v.width, v.height
         ));
     }
-    if !v.hither.is_finite()
-        || !(v.aperture.is_finite() && v.aperture >= 0.0)
-        || !(v.focal.is_finite() && v.focal > 0.0)
-    {
+    let lens_ok = v.aperture.is_finite() && v.aperture >= 0.0 && v.focal.is_finite() && v.focal > 0.0;
+    if !(v.hither.is_finite() && lens_ok) {
         return Err(format!(
             "camera: hither {}, aperture {}, focal {}: expected finite, >= 0 and > 0",
             v.hither, v.aperture, v.focal

@@ -221,7 +221,7 @@ fn every_course_scene_loads_and_round_trips() {
 fn dragon_has_its_hundred_thousand_triangles() {
     let Some(shared) = shared() else { return };
     let start = std::time::Instant::now();
-    let scene = load(&shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap().scene;
+    let scene = load(shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap().scene;
     println!("dragon.p3f loaded in {:.3} s", start.elapsed().as_secs_f64());
     let mesh = scene.objects.iter().find_map(|o| match &o.shape {
         Shape::Mesh { vertices, triangles } => Some((vertices.len(), triangles.len())),

@@ -32,7 +32,7 @@ fn spheres(scene: &Scene) -> Vec<(Vec3A, f32)> {
 #[test]
 fn sphereflake_depth_1_is_the_course_balls_low() {
     let Some(shared) = shared() else { return };
-    let course = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap().scene;
+    let course = p3f::load(shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap().scene;
     let ours = sphereflake(1).unwrap();
     let (a, b) = (spheres(&course), spheres(&ours));
     assert_eq!(a.len(), b.len());
@@ -92,7 +92,7 @@ fn fractal_mountain_has_no_cracks() {
 #[test]
 fn obj_meshes_load_and_place() {
     let Some(shared) = shared() else { return };
-    let bunny = obj::load(&shared.join("meshes/bunny.obj")).unwrap();
+    let bunny = obj::load(shared.join("meshes/bunny.obj")).unwrap();
     let Shape::Mesh { ref vertices, ref triangles } = bunny else { panic!("a mesh") };
     assert_eq!(triangles.len(), 3674);
     let bounds = Aabb::from_points(vertices.iter().copied());
@@ -114,7 +114,7 @@ fn obj_meshes_load_and_place() {
     let e = p3f::load(&scene_path, &Default::default()).unwrap_err().to_string();
     assert!(e.contains("s.p3f:3:5: obj 'missing.obj'"), "{e}");
     std::fs::write(dir.join("bad.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();
-    assert!(obj::load(&dir.join("bad.obj")).is_err());
+    assert!(obj::load(dir.join("bad.obj")).is_err());
     let view = mesh_view(bunny, 64, 64);
     assert!(camera_rays(&view.view, 4096).len() == 4096);
 }
