@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use raylume_accel::AccelKind;
-use raylume_integrator::RenderSettings;
+use raylume_integrator::{Profile, RenderSettings};
 use raylume_material::FresnelMode;
 use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, Scene, p3f, procedural};
 
@@ -61,9 +61,13 @@ struct RenderArgs {
     /// Samples per pixel (1: the pixel centre; more: jittered n x n strata, n = ceil(sqrt(spp))).
     #[arg(long)]
     spp: Option<u32>,
-    /// Maximum ray depth, counting the camera ray as 1.
-    #[arg(long, default_value_t = 4)]
-    depth: u32,
+    /// Maximum ray depth, counting the camera ray as 1 (default: the profile's, 4 for plain, 8 for course).
+    #[arg(long)]
+    depth: Option<u32>,
+    /// Shading rules: plain (the model as the course describes it) or course (the rules of the
+    /// course's reference renders).
+    #[arg(long, value_enum, default_value_t = ProfileArg::Plain)]
+    profile: ProfileArg,
     /// Accelerator (bvh: binned SAH; bvh-midpoint: the course's build; grid: uniform grid with
     /// mailboxing); by default the scene's `accel` hint, else bvh.
     #[arg(long, value_enum)]
@@ -186,6 +190,12 @@ impl From<SamplerArg> for SamplerKind {
     }
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
+enum ProfileArg {
+    Plain,
+    Course,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum AccelArg {
     None,
@@ -250,13 +260,18 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     }
     env_dirs.extend(args.env_dir.iter().cloned());
     let spp = args.spp.or(scene.spp_hint).unwrap_or(1);
+    let profile = match args.profile {
+        ProfileArg::Plain => Profile::Plain,
+        ProfileArg::Course => Profile::Course,
+    };
     let settings = RenderSettings {
-        max_depth: args.depth,
+        max_depth: args.depth.unwrap_or(profile.default_depth()),
         spp,
         seed: args.seed,
         fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
         light_grid: args.light_grid.clamp(1, 64),
         crop: args.crop.as_ref().map(|c| [c[0], c[1], c[2], c[3]]),
+        profile,
     };
     if let Some([x0, y0, x1, y1]) = settings.crop {
         if x0 >= x1 || y0 >= y1 {
@@ -285,6 +300,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
         grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
         sampler: args.sampler.into(),
+        profile,
     };
     if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= 1000.0) {
         return Err(bad_input(format!("--grid-k {}: expected a number in (0, 1000]", args.grid_k)));

@@ -30,12 +30,14 @@
 mod background;
 mod film;
 pub mod metrics;
+mod profile;
 mod render;
 pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
 pub use film::{Film, OutputError};
+pub use profile::Profile;
 pub use render::{RayStats, RenderSettings, render};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};

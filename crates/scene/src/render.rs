@@ -6,8 +6,8 @@ use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Centre, Film, Independent, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading,
-    Sobol, SoftShadows, Whitted, World, render,
+    Background, Centre, Film, Independent, Integrator, Jittered, Light, Profile, RayStats, RenderSettings, Sampler,
+    Shading, Sobol, SoftShadows, Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
@@ -43,6 +43,9 @@ pub struct RenderOptions {
     pub grid: GridParams,
     /// The sampler of antialiased renders.
     pub sampler: SamplerKind,
+    /// The shading rules (plain, or the course's reference renders'); it overrides `settings.profile`.
+    /// The depth stays `settings.max_depth` (the course profile's images use [`Profile::default_depth`]).
+    pub profile: Profile,
 }
 
 /// Which sampler draws the samples of antialiased renders.
@@ -73,6 +76,7 @@ impl Default for RenderOptions {
             shutter: None,
             grid: GridParams::default(),
             sampler: SamplerKind::default(),
+            profile: Profile::Plain,
         }
     }
 }
@@ -262,7 +266,7 @@ impl Scene {
             .materials
             .iter()
             .map(|m| Phong {
-                specular_scale: options.specular_scale,
+                specular_scale: options.specular_scale * options.profile.specular_scale(self.lights.len()),
                 roughness: options.roughness.unwrap_or(m.roughness),
                 ..*m
             })
@@ -361,11 +365,12 @@ impl Scene {
         let kind = self.accel_kind(options);
         let build = Instant::now();
         let passes = [options.settings.spp];
+        let settings = RenderSettings { profile: options.profile, ..options.settings };
         let job = Job {
             view: &view,
             shutter,
             features,
-            settings: &options.settings,
+            settings: &settings,
             on_row,
             sampler: options.sampler,
             passes: progressive.as_ref().map_or(&passes[..], |p| p.0),
