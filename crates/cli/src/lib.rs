@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use raylume_accel::AccelKind;
-use raylume_integrator::RenderSettings;
+use raylume_integrator::{Profile, RenderSettings};
 use raylume_material::FresnelMode;
 use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, Scene, limits, p3f, procedural};
 
@@ -64,9 +64,13 @@ struct RenderArgs {
     /// Samples per pixel (1: the pixel centre; more: jittered n x n strata, n = ceil(sqrt(spp))).
     #[arg(long)]
     spp: Option<u32>,
-    /// Maximum ray depth, counting the camera ray as 1.
-    #[arg(long, default_value_t = 4)]
-    depth: u32,
+    /// Maximum ray depth, counting the camera ray as 1 (default: the profile's, 4 for plain, 8 for course).
+    #[arg(long)]
+    depth: Option<u32>,
+    /// Shading rules: plain (the model as the course describes it) or course (the rules of the
+    /// course's reference renders).
+    #[arg(long, value_enum, default_value_t = ProfileArg::Plain)]
+    profile: ProfileArg,
     /// Accelerator (bvh: binned SAH; bvh-midpoint: the course's build; grid: uniform grid with
     /// mailboxing); by default the scene's `accel` hint, else bvh.
     #[arg(long, value_enum)]
@@ -189,6 +193,21 @@ impl From<SamplerArg> for SamplerKind {
     }
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum)]
+enum ProfileArg {
+    Plain,
+    Course,
+}
+
+impl From<ProfileArg> for Profile {
+    fn from(p: ProfileArg) -> Self {
+        match p {
+            ProfileArg::Plain => Profile::Plain,
+            ProfileArg::Course => Profile::Course,
+        }
+    }
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum AccelArg {
     None,
@@ -299,8 +318,9 @@ fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
 /// The render's options from its flags, checked against the limits (nothing depends on the scene).
 fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
     check_threads(args.threads)?;
+    let profile = Profile::from(args.profile);
     let settings = RenderSettings {
-        max_depth: args.depth,
+        max_depth: args.depth.unwrap_or(profile.default_depth()),
         seed: args.seed,
         fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
         light_grid: args.light_grid,
@@ -323,6 +343,7 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
         shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
         grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
         sampler: args.sampler.into(),
+        profile,
     };
     options.validate().map_err(bad_input)?;
     Ok(options)

@@ -30,12 +30,14 @@
 mod background;
 mod film;
 pub mod metrics;
+mod profile;
 mod render;
 pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
 pub use film::{Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs};
+pub use profile::Profile;
 pub use render::{MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, RayStats, RenderSettings, render};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};

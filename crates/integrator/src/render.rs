@@ -7,7 +7,7 @@ use raylume_material::{FresnelMode, Material};
 use rayon::prelude::*;
 
 use crate::sampler::{SampleSource, Sampler};
-use crate::{Film, Integrator, World};
+use crate::{Film, Integrator, Profile, World};
 
 /// Deepest ray tree a render traces ([`RenderSettings::max_depth`]): the integrator recurses once
 /// per level, and this many levels fit with a wide margin in the 2 MiB stack of a default thread.
@@ -34,11 +34,22 @@ pub struct RenderSettings {
     pub light_grid: u32,
     /// Render only this part of the image: `[x0, y0, x1, y1)` in pixels, row 0 at the top.
     pub crop: Option<[u32; 4]>,
+    /// The shading rules ([`Profile::Plain`]: the plain model). The scene API sets it from its
+    /// render options' `profile`.
+    pub profile: Profile,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { max_depth: 4, spp: 1, seed: 0, fresnel: FresnelMode::Exact, light_grid: 4, crop: None }
+        Self {
+            max_depth: 4,
+            spp: 1,
+            seed: 0,
+            fresnel: FresnelMode::Exact,
+            light_grid: 4,
+            crop: None,
+            profile: Profile::Plain,
+        }
     }
 }
 

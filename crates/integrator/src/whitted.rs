@@ -3,7 +3,7 @@ use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::
 use raylume_material::{FresnelMode, Material, reflect, refract};
 
 use crate::sampler::SampleSource;
-use crate::{Integrator, Light, RayStats, RenderSettings, World};
+use crate::{Integrator, Light, Profile, RayStats, RenderSettings, World};
 
 /// How area lights are sampled; the const parameter of [`Whitted`].
 pub struct SoftShadows;
@@ -29,6 +29,7 @@ pub struct Whitted<const SOFT: u8> {
     max_depth: u32,
     fresnel: FresnelMode,
     grid: u32,
+    profile: Profile,
 }
 
 impl Whitted<{ SoftShadows::NONE }> {
@@ -42,8 +43,12 @@ impl<const SOFT: u8> Whitted<SOFT> {
     /// The integrator with the soft-shadow mode `SOFT`; a depth beyond [`crate::MAX_DEPTH`] is
     /// traced to that depth (the stack holds one frame per level).
     pub fn with_soft_shadows(settings: &RenderSettings) -> Self {
-        let max_depth = settings.max_depth.clamp(1, crate::MAX_DEPTH);
-        Self { max_depth, fresnel: settings.fresnel, grid: settings.light_grid.clamp(1, crate::MAX_LIGHT_GRID) }
+        Self {
+            max_depth: settings.max_depth.clamp(1, crate::MAX_DEPTH),
+            fresnel: settings.fresnel,
+            grid: settings.light_grid.clamp(1, crate::MAX_LIGHT_GRID),
+            profile: settings.profile,
+        }
     }
 
     /// The light arriving from `light` at `above` (a point offset off the surface).
@@ -112,7 +117,9 @@ impl<const SOFT: u8> Whitted<SOFT> {
         stats: &mut RayStats,
     ) -> Vec3 {
         let Some(found) = world.accel.closest_hit(ray, Interval::new(t_min, f32::INFINITY)) else {
-            return world.background.eval(ray.dir);
+            let bg = world.background.eval(ray.dir);
+            // The course profile dims the background seen by deep reflections; plain returns it as is.
+            return if self.profile == Profile::Plain { bg } else { bg * self.profile.escape_weight(depth) };
         };
         let hit = found.hit;
         let shading = world.shading[found.primitive as usize];

@@ -6,8 +6,8 @@ use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Centre, Film, Independent, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading,
-    Sobol, SoftShadows, Whitted, World, render,
+    Background, Centre, Film, Independent, Integrator, Jittered, Light, Profile, RayStats, RenderSettings, Sampler,
+    Shading, Sobol, SoftShadows, Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
@@ -53,6 +53,9 @@ pub struct RenderOptions {
     pub grid: GridParams,
     /// The sampler of antialiased renders.
     pub sampler: SamplerKind,
+    /// The shading rules (plain, or the course's reference renders'); it overrides `settings.profile`.
+    /// The depth stays `settings.max_depth` (the course profile's images use [`Profile::default_depth`]).
+    pub profile: Profile,
 }
 
 /// Which sampler draws the samples of antialiased renders.
@@ -129,6 +132,7 @@ impl Default for RenderOptions {
             shutter: None,
             grid: GridParams::default(),
             sampler: SamplerKind::default(),
+            profile: Profile::Plain,
         }
     }
 }
@@ -305,14 +309,14 @@ impl Scene {
             .materials
             .iter()
             .map(|m| Phong {
-                specular_scale: options.specular_scale,
+                specular_scale: options.specular_scale * options.profile.specular_scale(self.lights.len()),
                 roughness: options.roughness.unwrap_or(m.roughness),
                 ..*m
             })
             .collect();
         let shutter = options.shutter.map_or_else(|| self.shutter(), |(t0, t1)| Interval::new(t0, t1));
         let spp = options.spp.or(self.spp_hint.map(|s| s.max(1))).unwrap_or(options.settings.spp);
-        let settings = RenderSettings { spp, ..options.settings };
+        let settings = RenderSettings { spp, profile: options.profile, ..options.settings };
         settings.validate().map_err(SceneError::Invalid)?;
         if let Some([x0, y0, x1, y1]) = settings.crop {
             if x1 > view.width || y1 > view.height {
