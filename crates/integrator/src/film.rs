@@ -54,6 +54,8 @@ pub struct InputError {
 
 /// Largest image read, in pixels (the largest a render can make).
 pub const MAX_IMAGE_PIXELS: u64 = 1 << 27;
+/// Largest side of an image read, in pixels.
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
 
 /// A rendered image: linear RGB floats, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -216,6 +218,8 @@ impl Film {
                 let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
                 let mut limits = image::Limits::default();
                 limits.max_alloc = Some(MAX_IMAGE_PIXELS * 16);
+                limits.max_image_width = Some(MAX_IMAGE_SIDE);
+                limits.max_image_height = Some(MAX_IMAGE_SIDE);
                 reader.limits(limits);
                 let img = reader.decode().map_err(|e| e.to_string())?;
                 if img.width() as u64 * img.height() as u64 > MAX_IMAGE_PIXELS || img.width() == 0 || img.height() == 0

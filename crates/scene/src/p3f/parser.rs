@@ -477,6 +477,9 @@ impl<'a, 'f> Parser<'a, 'f> {
         let across = a.cross(up).normalize();
         let (u, v) = (across * width, across.cross(a) * height);
         let corner = center - (u + v) * 0.5;
+        if !(corner.is_finite() && (corner + u).is_finite() && (corner + v).is_finite()) {
+            return Err(self.error(tag, "expected an area light whose corners are finite numbers".to_owned()));
+        }
         Ok(Light {
             position: corner,
             color,
@@ -621,12 +624,14 @@ impl<'a, 'f> Parser<'a, 'f> {
             scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
             offset = self.vec3("obj translation")?;
         }
-        Ok(match shape {
-            Shape::Mesh { vertices, triangles } => {
-                Shape::Mesh { vertices: vertices.into_iter().map(|v| v * scale + offset).collect(), triangles }
-            }
-            other => other,
-        })
+        let Shape::Mesh { vertices, triangles } = shape else { return Ok(shape) };
+        let vertices: Vec<Vec3A> = vertices.into_iter().map(|v| v * scale + offset).collect();
+        if vertices.iter().any(|v| !v.is_finite()) {
+            return Err(
+                self.error(&name, "expected an obj scale and translation that keep its vertices finite".to_owned())
+            );
+        }
+        Ok(Shape::Mesh { vertices, triangles })
     }
 
     fn mesh(&mut self) -> Result<Shape, SceneError> {
