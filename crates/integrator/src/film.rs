@@ -221,11 +221,20 @@ impl Film {
                 limits.max_image_width = Some(MAX_IMAGE_SIDE);
                 limits.max_image_height = Some(MAX_IMAGE_SIDE);
                 reader.limits(limits);
-                let img = reader.decode().map_err(|e| e.to_string())?;
-                if img.width() as u64 * img.height() as u64 > MAX_IMAGE_PIXELS || img.width() == 0 || img.height() == 0
-                {
-                    return Err(format!("{}x{} pixels: expected 1 to {MAX_IMAGE_PIXELS}", img.width(), img.height()));
+                let decoder = reader.into_decoder().map_err(|e| e.to_string())?;
+                // The header's size is checked before anything is allocated for it: within the
+                // limits, and no more pixels than the file's bytes can hold once decompressed
+                // (deflate, the strongest of these formats' codecs, expands at most about 1032:1).
+                let (w, h) = image::ImageDecoder::dimensions(&decoder);
+                let pixels = w as u64 * h as u64;
+                let holds = bytes.len() as u64 * 1100 + (1 << 16);
+                if w == 0 || h == 0 || pixels > MAX_IMAGE_PIXELS || pixels > holds {
+                    return Err(format!(
+                        "{w}x{h} pixels: expected 1 to {MAX_IMAGE_PIXELS}, and no more than {} bytes can hold",
+                        bytes.len()
+                    ));
                 }
+                let img = image::DynamicImage::from_decoder(decoder).map_err(|e| e.to_string())?;
                 let img = img.into_rgb32f();
                 let (w, h) = img.dimensions();
                 let pixels = img.pixels().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
