@@ -37,17 +37,23 @@ pub fn load(path: impl AsRef<Path>) -> Result<Shape, SceneError> {
 pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
     let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     let no_materials = |_: &Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
-    let (models, _materials) = tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &options, no_materials)
-        .map_err(|e| {
-            let what = describe(&e);
-            match locate(bytes, &e) {
-                Some((line, text)) => SceneError::Invalid(format!(
-                    "{name}:{line}: not a readable OBJ file ({what}): '{}'",
-                    crate::p3f::shown(text.trim())
-                )),
-                None => SceneError::Invalid(format!("{name}: not a readable OBJ file ({what})")),
-            }
-        })?;
+    // tobj multiplies face indices unchecked: with overflow checks on (debug builds) a huge index
+    // panics inside it. That is reported as an unreadable file.
+    let read =
+        std::panic::catch_unwind(|| tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &options, no_materials))
+            .map_err(|_| {
+                SceneError::Invalid(format!("{name}: not a readable OBJ file (an index is out of any range)"))
+            })?;
+    let (models, _materials) = read.map_err(|e| {
+        let what = describe(&e);
+        match locate(bytes, &e) {
+            Some((line, text)) => SceneError::Invalid(format!(
+                "{name}:{line}: not a readable OBJ file ({what}): '{}'",
+                crate::p3f::shown(text.trim())
+            )),
+            None => SceneError::Invalid(format!("{name}: not a readable OBJ file ({what})")),
+        }
+    })?;
     let path = Path::new(name);
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
