@@ -22,28 +22,26 @@ impl<P: Intersect> BruteForce<P> {
 }
 
 impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
-    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        if !ray.is_valid() {
-            return None;
-        }
-        let mut best = None;
-        for (i, p) in self.prims.iter().enumerate() {
-            tally.tested();
-            if let Some(hit) = p.intersect(ray, t_range) {
-                t_range = t_range.with_max(hit.t);
-                best = Some(PrimitiveHit { hit, primitive: i as u32 });
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        crate::closest_on_canonical(ray, t_range, |ray, mut t_range| {
+            let mut best = None;
+            for (i, p) in self.prims.iter().enumerate() {
+                tally.tested();
+                if let Some(hit) = p.intersect(ray, t_range) {
+                    t_range = t_range.with_max(hit.t);
+                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i as u32 });
+                }
             }
-        }
-        best
+            best
+        })
     }
 
     fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
-        if !ray.is_valid() || t_max.is_nan() {
-            return false;
-        }
-        self.prims.iter().any(|p| {
-            tally.tested();
-            p.occluded(ray, t_max)
+        crate::occluded_on_canonical(ray, t_max, |ray, t_max| {
+            self.prims.iter().any(|p| {
+                tally.tested();
+                p.occluded(ray, t_max)
+            })
         })
     }
 

@@ -257,17 +257,16 @@ impl Mailbox {
     }
 }
 
-impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
-    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        if !ray.is_valid() {
-            return None;
-        }
+impl<P: Intersect> Grid<P> {
+    /// [`Accelerator::closest_hit_tally`] of a canonical ray.
+    #[inline(always)]
+    fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         let mut best = None;
         for &i in &self.unbounded {
             tally.tested();
             if let Some(hit) = self.prims[i as usize].intersect(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                best = Some(PrimitiveHit { hit, primitive: i });
+                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i });
             }
         }
         let mut mailbox = Mailbox::new(self.mailbox);
@@ -278,7 +277,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
                     tally.tested();
                     if let Some(hit) = self.prims[i as usize].intersect(ray, t_range) {
                         t_range = t_range.with_max(hit.t);
-                        best = Some(PrimitiveHit { hit, primitive: i });
+                        best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i });
                     }
                 }
             }
@@ -288,10 +287,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
         best
     }
 
-    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
-        if !ray.is_valid() || t_max.is_nan() {
-            return false;
-        }
+    /// [`Accelerator::occluded_tally`] of a canonical ray.
+    #[inline(always)]
+    fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         for &i in &self.unbounded {
             tally.tested();
             if self.prims[i as usize].occluded(ray, t_max) {
@@ -314,6 +312,16 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
             true
         });
         hit
+    }
+}
+
+impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        crate::closest_on_canonical(ray, t_range, |ray, t_range| self.closest_canonical(ray, t_range, tally))
+    }
+
+    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        crate::occluded_on_canonical(ray, t_max, |ray, t_max| self.occluded_canonical(ray, t_max, tally))
     }
 
     fn bounds(&self) -> Aabb {

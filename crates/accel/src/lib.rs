@@ -28,13 +28,58 @@ use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Hit;
 
 /// The closest hit found by an accelerator, with the index of the primitive hit (its position in the
-/// slice the accelerator was built from).
+/// slice the accelerator was built from). Where several primitives are hit at the same distance, the
+/// one with the lowest index is reported, by every accelerator.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PrimitiveHit {
     /// The hit.
     pub hit: Hit,
     /// Index of the primitive hit.
     pub primitive: u32,
+}
+
+impl PrimitiveHit {
+    /// Whether this hit is to be reported rather than `other`: closer, or as close with a lower index.
+    #[inline]
+    pub fn beats(&self, other: &PrimitiveHit) -> bool {
+        self.hit.t < other.hit.t || (self.hit.t == other.hit.t && self.primitive < other.primitive)
+    }
+
+    /// `candidate` if it [beats](PrimitiveHit::beats) `best` (or there is none), else `best`.
+    #[inline]
+    pub fn closer(best: Option<PrimitiveHit>, candidate: PrimitiveHit) -> Option<PrimitiveHit> {
+        match best {
+            Some(b) if !candidate.beats(&b) => Some(b),
+            _ => Some(candidate),
+        }
+    }
+}
+
+/// A query on the canonical form of `ray` ([`Ray::canonical`]): the accelerators answer every
+/// direction `2^k d` alike, bit for bit, with `t` scaled by `2^-k`.
+#[inline(always)]
+fn on_canonical<R>(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interval) -> Option<R>) -> Option<(R, f32)> {
+    let (ray, s) = ray.canonical()?;
+    query(&ray, t_range.scaled(1.0 / s)).map(|r| (r, s))
+}
+
+/// [`on_canonical`] for closest-hit queries.
+#[inline(always)]
+fn closest_on_canonical(
+    ray: &Ray,
+    t_range: Interval,
+    query: impl FnOnce(&Ray, Interval) -> Option<PrimitiveHit>,
+) -> Option<PrimitiveHit> {
+    on_canonical(ray, t_range, query).map(|(h, s)| PrimitiveHit { hit: Hit { t: h.hit.t * s, ..h.hit }, ..h })
+}
+
+/// [`on_canonical`] for any-hit queries within `(0, t_max)`.
+#[inline(always)]
+fn occluded_on_canonical(ray: &Ray, t_max: f32, query: impl FnOnce(&Ray, f32) -> bool) -> bool {
+    if t_max.is_nan() {
+        return false;
+    }
+    on_canonical(ray, Interval::new(0.0, t_max), |ray, range| query(ray, range.max).then_some(())).is_some()
 }
 
 /// Counts the work of a query. `()` counts nothing (the render path); `u64` counts primitive tests;

@@ -45,6 +45,28 @@ impl Aabb {
         points.into_iter().fold(Self::EMPTY, Self::union_point)
     }
 
+    /// The box `[min, max]` computed in f64, rounded outward to f32: it contains every point of the
+    /// f64 box, so bounds formed this way are conservative.
+    ///
+    /// ```
+    /// use raylume_geometry::Aabb;
+    /// // 1e7 + 0.3 rounds down to 1e7 in f32; the box still reaches past it.
+    /// let b = Aabb::from_f64([1e7 - 0.3; 3], [1e7 + 0.3; 3]);
+    /// assert!(b.max.x as f64 >= 1e7 + 0.3 && (b.min.x as f64) <= 1e7 - 0.3);
+    /// ```
+    #[inline]
+    pub fn from_f64(min: [f64; 3], max: [f64; 3]) -> Self {
+        let down = |x: f64| {
+            let f = x as f32;
+            if f as f64 > x { f.next_down() } else { f }
+        };
+        let up = |x: f64| {
+            let f = x as f32;
+            if (f as f64) < x { f.next_up() } else { f }
+        };
+        Self { min: Vec3A::from_array(min.map(down)), max: Vec3A::from_array(max.map(up)) }
+    }
+
     /// The smallest box containing both boxes.
     #[inline]
     pub fn union(self, other: Aabb) -> Self {

@@ -27,11 +27,15 @@ impl Ray {
         Self { origin, dir, time }
     }
 
-    /// Whether the ray can be traced: finite origin and direction, and a direction that is not zero.
+    /// Whether the ray can be traced: finite origin and direction, and a direction whose largest
+    /// component is a normal number (at least `f32::MIN_POSITIVE`, about 1.2e-38, in magnitude).
     /// Accelerators return no hit for any other ray, after constant work.
     #[inline]
     pub fn is_valid(&self) -> bool {
-        self.origin.is_finite() && self.dir.is_finite() && self.dir != Vec3A::ZERO && !self.time.is_nan()
+        self.origin.is_finite()
+            && self.dir.is_finite()
+            && self.dir.abs().max_element() >= f32::MIN_POSITIVE
+            && !self.time.is_nan()
     }
 
     /// The point at parameter `t` along the ray.
@@ -39,6 +43,42 @@ impl Ray {
     pub fn at(&self, t: f32) -> Vec3A {
         self.origin + self.dir * t
     }
+
+    /// The ray with its direction scaled by a power of two so that its largest component has a
+    /// magnitude in `[1, 2)`, and the factor `s` that takes its parameters back: a hit at `t` on the
+    /// returned ray is at `t * s` on `self` (and a range `r` on `self` is `r.scaled(1.0 / s)` on the
+    /// returned ray). Both scalings are exact, so a query that answers on the canonical ray gives the
+    /// same answer, bit for bit, for every direction `2^k d`: the intersection routines and the
+    /// accelerators do so. `None` for a ray that is not [valid](Ray::is_valid).
+    ///
+    /// ```
+    /// use raylume_geometry::{Ray, Vec3A};
+    /// let ray = Ray::new(Vec3A::ZERO, Vec3A::new(0.0, 3.0 * 2f32.powi(-30), 0.0));
+    /// let (canonical, s) = ray.canonical().unwrap();
+    /// assert_eq!(canonical.dir, Vec3A::new(0.0, 1.5, 0.0));
+    /// assert_eq!(s, 2f32.powi(29));
+    /// assert_eq!(canonical.at(2.0), ray.at(2.0 * s));
+    /// ```
+    #[inline]
+    pub fn canonical(&self) -> Option<(Ray, f32)> {
+        if !self.is_valid() {
+            return None;
+        }
+        let e = ((self.dir.abs().max_element().to_bits() >> 23) as i32) - 127;
+        if e == 0 {
+            return Some((*self, 1.0));
+        }
+        // The direction is 2^-e times its canonical one, so parameters scale by 2^-e too (`e` is in
+        // -126..=127 for a valid ray: representable).
+        let factor = pow2(-e);
+        Some((Ray { origin: self.origin, dir: self.dir * factor, time: self.time }, factor))
+    }
+}
+
+/// `2^k` for `k` in `-127..=127` (`2^-127` is subnormal, and exact).
+#[inline]
+fn pow2(k: i32) -> f32 {
+    if k >= -126 { f32::from_bits(((k + 127) as u32) << 23) } else { f32::from_bits(1 << 22) }
 }
 
 /// A closed interval of ray parameters `[min, max]` in which hits are accepted.
@@ -77,5 +117,11 @@ impl Interval {
     #[inline]
     pub fn with_max(self, max: f32) -> Self {
         Self { min: self.min, max }
+    }
+
+    /// Both ends multiplied by `factor` (a power of two in [`Ray::canonical`]'s use, where it is exact).
+    #[inline]
+    pub fn scaled(self, factor: f32) -> Self {
+        Self { min: self.min * factor, max: self.max * factor }
     }
 }

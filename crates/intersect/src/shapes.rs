@@ -5,49 +5,60 @@ use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sp
 use crate::{Hit, Intersect, intersect_watertight};
 
 impl Intersect for Sphere {
-    /// The careful quadratic of *Ray Tracing Gems* ch. 7: the discriminant is taken from the distance
-    /// of the centre to the ray's line, and the roots from the form that avoids cancellation.
+    /// The careful quadratic of *Ray Tracing Gems* ch. 7 (the discriminant from the distance of the
+    /// centre to the ray's line, the roots from the form that avoids cancellation), in f64 on the
+    /// canonical ray ([`Ray::canonical`]): exact in `|d|`, and neither overflowing nor cancelling for
+    /// radii and distances up to 1e30 and beyond.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        let f = ray.origin - self.center;
-        let a = ray.dir.length_squared();
-        let half_b = f.dot(ray.dir);
-        // |f|^2 - r^2 cancels when the origin is near the surface: form it in f64, where the squares
-        // of f32 values are exact.
-        let r2 = self.radius as f64 * self.radius as f64;
-        let c = (sq64(f) - r2) as f32;
-        let closest = f - ray.dir * (half_b / a);
-        let disc = a * (r2 - sq64(closest)) as f32;
-        if disc < 0.0 || !disc.is_finite() {
-            return None;
-        }
-        let q = -(half_b + disc.sqrt().copysign(half_b));
-        let (mut t0, mut t1) = (c / q, q / a);
-        if t0 > t1 {
-            std::mem::swap(&mut t0, &mut t1);
-        }
-        let t = if t_range.contains(t0) {
-            t0
-        } else if t_range.contains(t1) {
-            t1
-        } else {
-            return None;
-        };
-        // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
-        let offset = ray.at(t) - self.center;
-        let len = offset.length();
-        if len.is_nan() || len <= 0.0 {
-            return None;
-        }
-        let normal = offset / len;
-        let point = self.center + normal * self.radius;
-        let error = (self.center.abs() + (normal * self.radius).abs()) * gamma(5);
-        Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
+        on_canonical(ray, t_range, |ray, range| sphere_hit(self.center, self.radius, ray, range))
     }
 
     fn bounds(&self) -> Aabb {
-        Aabb::new(self.center - Vec3A::splat(self.radius), self.center + Vec3A::splat(self.radius))
+        let (c, r) = (v64(self.center), self.radius as f64);
+        Aabb::from_f64([0, 1, 2].map(|k| c[k] - r), [0, 1, 2].map(|k| c[k] + r))
     }
+}
+
+/// The hit of a ray (canonical) on the sphere of `center` and `radius`, within `range`.
+#[inline]
+fn sphere_hit(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Option<Hit> {
+    let (c, o, d, r) = (v64(center), v64(ray.origin), v64(ray.dir), radius as f64);
+    let f = sub(o, c);
+    let a = dot(d, d);
+    let half_b = dot(f, d);
+    let r2 = r * r;
+    let cc = dot(f, f) - r2;
+    let s = half_b / a;
+    let closest = [f[0] - d[0] * s, f[1] - d[1] * s, f[2] - d[2] * s];
+    let disc = a * (r2 - dot(closest, closest));
+    if !(0.0..f64::INFINITY).contains(&disc) {
+        return None;
+    }
+    let q = -(half_b + disc.sqrt().copysign(half_b));
+    if q == 0.0 {
+        return None;
+    }
+    let (t0, t1) = (cc / q, q / a);
+    let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+    let t64 = if range.contains(t0 as f32) {
+        t0
+    } else if range.contains(t1 as f32) {
+        t1
+    } else {
+        return None;
+    };
+    // The point reprojected onto the sphere in f64: its error is the final rounding, not the ray's travel.
+    let offset = [f[0] + d[0] * t64, f[1] + d[1] * t64, f[2] + d[2] * t64];
+    let len = dot(offset, offset).sqrt();
+    if !(len > 0.0 && len.is_finite()) {
+        return None;
+    }
+    let n = offset.map(|x| x / len);
+    let point = Vec3A::new((c[0] + n[0] * r) as f32, (c[1] + n[1] * r) as f32, (c[2] + n[2] * r) as f32);
+    let error = rounding_error(point, radius) + (center.abs() + Vec3A::splat(radius)) * F64_SLOP;
+    let normal = Vec3A::new(n[0] as f32, n[1] as f32, n[2] as f32);
+    Some(Hit { t: t64 as f32, point, normal, uv: Vec2::ZERO, error })
 }
 
 impl Intersect for MovingSphere {
@@ -60,8 +71,15 @@ impl Intersect for MovingSphere {
         self.at(self.time0).bounds()
     }
 
+    /// The spheres at both ends of the shutter, and a margin for the rounding of the centre's
+    /// interpolation at the instants between them.
     fn bounds_over(&self, shutter: Interval) -> Aabb {
-        self.at(shutter.min).bounds().union(self.at(shutter.max).bounds())
+        let (a, b) = (self.at(shutter.min), self.at(shutter.max));
+        let margin = (a.center.abs().max(b.center.abs()) + (self.center1 - self.center0).abs()) * gamma(4);
+        let grow = |s: Sphere| Sphere { center: s.center, radius: s.radius }.bounds();
+        let boxed = grow(a).union(grow(b));
+        let (lo, hi) = (boxed.min - margin, boxed.max + margin);
+        Aabb::from_f64(lo.to_array().map(|x| x as f64), hi.to_array().map(|x| x as f64)).union(boxed)
     }
 }
 
@@ -70,6 +88,11 @@ impl Intersect for Triangle {
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         intersect_watertight(self, ray, t_range)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        crate::watertight::occludes(self, ray, t_max)
     }
 
     #[inline]
@@ -120,25 +143,31 @@ impl Intersect for Plane {
     /// A ray parallel to the plane (or lying in it) never hits.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        // In f64: near-parallel rays make n.d cancel, and f32 would lose t there.
-        let (n, d) = (self.normal.to_array().map(f64::from), ray.dir.to_array().map(f64::from));
-        let denom = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-        if denom == 0.0 {
-            return None;
-        }
-        let offset = [0, 1, 2].map(|k| self.point[k] as f64 - ray.origin[k] as f64);
-        let t = ((n[0] * offset[0] + n[1] * offset[1] + n[2] * offset[2]) / denom) as f32;
-        if !t_range.contains(t) {
-            return None;
-        }
-        let point = ray.at(t);
-        let error = (ray.origin.abs() + self.point.abs() + (ray.dir * t).abs()) * gamma(7);
-        Some(Hit { t, point, normal: self.normal, uv: Vec2::ZERO, error })
+        on_canonical(ray, t_range, |ray, range| plane_hit(self, ray, range))
     }
 
     fn bounds(&self) -> Aabb {
         Aabb::new(Vec3A::NEG_INFINITY, Vec3A::INFINITY)
     }
+}
+
+/// [`Plane`]'s intersection on a canonical ray.
+#[inline]
+fn plane_hit(plane: &Plane, ray: &Ray, t_range: Interval) -> Option<Hit> {
+    // In f64: near-parallel rays make n.d cancel, and f32 would lose t there.
+    let (n, d) = (plane.normal.to_array().map(f64::from), ray.dir.to_array().map(f64::from));
+    let denom = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    if denom == 0.0 {
+        return None;
+    }
+    let offset = [0, 1, 2].map(|k| plane.point[k] as f64 - ray.origin[k] as f64);
+    let t = ((n[0] * offset[0] + n[1] * offset[1] + n[2] * offset[2]) / denom) as f32;
+    if !t_range.contains(t) {
+        return None;
+    }
+    let point = ray.at(t);
+    let error = (ray.origin.abs() + plane.point.abs() + (ray.dir * t).abs()) * gamma(7);
+    Some(Hit { t, point, normal: plane.normal, uv: Vec2::ZERO, error })
 }
 
 impl Intersect for AaBox {
@@ -148,37 +177,7 @@ impl Intersect for AaBox {
     /// edges and corners go to the lowest axis); the point is put exactly on that face.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        let inv = ray.dir.recip();
-        let (t0, t1) = self.bounds.hit_range(ray, inv, f32::NEG_INFINITY, f32::INFINITY)?;
-        let entering = t0 > 0.0 && t_range.contains(t0);
-        let t = if entering {
-            t0
-        } else if t_range.contains(t1) {
-            t1
-        } else {
-            return None;
-        };
-        let t_lo = (self.bounds.min - ray.origin) * inv;
-        let t_hi = (self.bounds.max - ray.origin) * inv;
-        let parallel = ray.dir.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE)) | t_lo.is_nan_mask() | t_hi.is_nan_mask();
-        let near = Vec3A::select(parallel, Vec3A::NEG_INFINITY, t_lo.min(t_hi));
-        let far = Vec3A::select(parallel, Vec3A::INFINITY, t_lo.max(t_hi));
-        let mut face = 0;
-        for a in 1..3 {
-            if (entering && near[a] > near[face]) || (!entering && far[a] < far[face]) {
-                face = a;
-            }
-        }
-        let positive = ray.dir[face] > 0.0;
-        let outward = if entering { !positive } else { positive };
-        let mut normal = Vec3A::ZERO;
-        normal[face] = if outward { 1.0 } else { -1.0 };
-        let mut point = ray.at(t);
-        point[face] = if outward { self.bounds.max[face] } else { self.bounds.min[face] };
-        // The face coordinate is exact; a one-ulp bound still makes spawned rays start off the face.
-        let mut error = travel_error(ray, t, 3);
-        error[face] = (point[face].abs() * gamma(1)).max(f32::MIN_POSITIVE);
-        Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
+        on_canonical(ray, t_range, |ray, range| box_hit(self, ray, range))
     }
 
     fn bounds(&self) -> Aabb {
@@ -186,53 +185,174 @@ impl Intersect for AaBox {
     }
 }
 
+/// [`AaBox`]'s intersection on a canonical ray.
+#[inline]
+fn box_hit(aabox: &AaBox, ray: &Ray, t_range: Interval) -> Option<Hit> {
+    let inv = ray.dir.recip();
+    let (t0, t1) = aabox.bounds.hit_range(ray, inv, f32::NEG_INFINITY, f32::INFINITY)?;
+    let entering = t0 > 0.0 && t_range.contains(t0);
+    let t = if entering {
+        t0
+    } else if t_range.contains(t1) {
+        t1
+    } else {
+        return None;
+    };
+    let t_lo = (aabox.bounds.min - ray.origin) * inv;
+    let t_hi = (aabox.bounds.max - ray.origin) * inv;
+    let parallel = ray.dir.abs().cmplt(Vec3A::splat(f32::MIN_POSITIVE)) | t_lo.is_nan_mask() | t_hi.is_nan_mask();
+    let near = Vec3A::select(parallel, Vec3A::NEG_INFINITY, t_lo.min(t_hi));
+    let far = Vec3A::select(parallel, Vec3A::INFINITY, t_lo.max(t_hi));
+    let mut face = 0;
+    for a in 1..3 {
+        if (entering && near[a] > near[face]) || (!entering && far[a] < far[face]) {
+            face = a;
+        }
+    }
+    let positive = ray.dir[face] > 0.0;
+    let outward = if entering { !positive } else { positive };
+    let mut normal = Vec3A::ZERO;
+    normal[face] = if outward { 1.0 } else { -1.0 };
+    let mut point = ray.at(t);
+    point[face] = if outward { aabox.bounds.max[face] } else { aabox.bounds.min[face] };
+    // The face coordinate is exact; a one-ulp bound still makes spawned rays start off the face.
+    let mut error = travel_error(ray, t, 3);
+    error[face] = (point[face].abs() * gamma(1)).max(f32::MIN_POSITIVE);
+    // The other coordinates lie in the box's extent exactly; rounding must not take them out.
+    let point = point.clamp(aabox.bounds.min, aabox.bounds.max);
+    Some(Hit { t, point, normal, uv: Vec2::ZERO, error })
+}
+
 impl Intersect for Cone {
-    /// The NFF cone: the lateral surface between the two caps, which are open.
+    /// The NFF cone: the lateral surface between the two caps, which are open. In f64, in the frame
+    /// of the cone's axis, on the canonical ray; the point is reprojected onto the surface, so its
+    /// error is the final rounding to f32.
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        let axis_v = self.apex - self.base;
-        let height = axis_v.length();
-        if height == 0.0 || !height.is_finite() {
-            return None;
-        }
-        let w = axis_v / height;
-        let (u, v) = raylume_geometry::orthonormal_basis(w);
-        let to_local = |p: Vec3A| Vec3A::new(p.dot(u), p.dot(v), p.dot(w));
-        let o = to_local(ray.origin - self.base);
-        let d = to_local(ray.dir);
-        let k = (self.apex_radius - self.base_radius) / height;
-        let r0 = self.base_radius;
-        let rz = r0 + k * o.z;
-        let a = d.x * d.x + d.y * d.y - k * k * d.z * d.z;
-        let b = 2.0 * (o.x * d.x + o.y * d.y - k * rz * d.z);
-        let c = o.x * o.x + o.y * o.y - rz * rz;
-        let roots = solve_quadratic(a, b, c)?;
-        for t in roots {
-            if !t_range.contains(t) {
-                continue;
-            }
-            let z = o.z + t * d.z;
-            if !(0.0..=height).contains(&z) {
-                continue;
-            }
-            let lp = o + d * t;
-            let local_n = Vec3A::new(lp.x, lp.y, -k * (r0 + k * z));
-            let n = (u * local_n.x + v * local_n.y + w * local_n.z).normalize_or_zero();
-            if n == Vec3A::ZERO {
-                continue;
-            }
-            return Some(Hit { t, point: ray.at(t), normal: n, uv: Vec2::ZERO, error: travel_error(ray, t, 9) });
-        }
-        None
+        on_canonical(ray, t_range, |ray, range| cone_hit(self, ray, range))
     }
 
     fn bounds(&self) -> Aabb {
-        Cone::bounds(self)
+        let (base, apex) = (v64(self.base), v64(self.apex));
+        let axis = sub(apex, base);
+        let h = dot(axis, axis).sqrt();
+        if !(h > 0.0 && h.is_finite()) {
+            return Cone::bounds(self);
+        }
+        // Extent of a disc of radius r with unit normal w along each world axis: r sqrt(1 - w_i^2),
+        // with a margin for the f64 roundings of the hit points.
+        let e = axis.map(|a| (1.0 - (a / h) * (a / h)).max(0.0).sqrt());
+        let slop = (base.iter().chain(&apex).fold(0.0f64, |m, x| m.max(x.abs()))
+            + self.base_radius.abs().max(self.apex_radius.abs()) as f64
+            + h)
+            * F64_SLOP as f64;
+        let ends = [(base, self.base_radius.abs() as f64), (apex, self.apex_radius.abs() as f64)];
+        let lo = [0, 1, 2].map(|k| ends.iter().map(|(c, r)| c[k] - e[k] * r).fold(f64::INFINITY, f64::min) - slop);
+        let hi = [0, 1, 2].map(|k| ends.iter().map(|(c, r)| c[k] + e[k] * r).fold(f64::NEG_INFINITY, f64::max) + slop);
+        Aabb::from_f64(lo, hi)
     }
+}
+
+/// The hit of a ray (canonical) on the lateral surface of `cone`, within `range`.
+#[inline]
+fn cone_hit(cone: &Cone, ray: &Ray, range: Interval) -> Option<Hit> {
+    let (base, apex) = (v64(cone.base), v64(cone.apex));
+    let axis = sub(apex, base);
+    let height = dot(axis, axis).sqrt();
+    if !(height > 0.0 && height.is_finite()) {
+        return None;
+    }
+    let w = axis.map(|a| a / height);
+    let (u, v) = basis64(w);
+    let local = |p: [f64; 3]| [dot(p, u), dot(p, v), dot(p, w)];
+    let o = local(sub(v64(ray.origin), base));
+    let d = local(v64(ray.dir));
+    let (r0, k) = (cone.base_radius as f64, (cone.apex_radius as f64 - cone.base_radius as f64) / height);
+    let rz = r0 + k * o[2];
+    let a = d[0] * d[0] + d[1] * d[1] - k * k * d[2] * d[2];
+    let b = 2.0 * (o[0] * d[0] + o[1] * d[1] - k * rz * d[2]);
+    let c = o[0] * o[0] + o[1] * o[1] - rz * rz;
+    for t in solve_quadratic(a, b, c)? {
+        if !range.contains(t as f32) {
+            continue;
+        }
+        let z = o[2] + t * d[2];
+        if !(0.0..=height).contains(&z) {
+            continue;
+        }
+        // Reproject onto the surface at this height.
+        let radius = r0 + k * z;
+        let (x, y) = (o[0] + t * d[0], o[1] + t * d[1]);
+        let rho = (x * x + y * y).sqrt();
+        if !(rho > 0.0 && rho.is_finite()) {
+            continue;
+        }
+        let (x, y) = (x * (radius.abs() / rho), y * (radius.abs() / rho));
+        let world = |lx: f64, ly: f64, lz: f64| [0, 1, 2].map(|i| u[i] * lx + v[i] * ly + w[i] * lz);
+        let p = world(x, y, z);
+        let n = world(x, y, -k * radius);
+        let len = dot(n, n).sqrt();
+        if !(len > 0.0 && len.is_finite()) {
+            continue;
+        }
+        let point = Vec3A::new((base[0] + p[0]) as f32, (base[1] + p[1]) as f32, (base[2] + p[2]) as f32);
+        let normal = Vec3A::new((n[0] / len) as f32, (n[1] / len) as f32, (n[2] / len) as f32);
+        let magnitude = cone.base.abs() + Vec3A::splat((radius.abs() + z.abs()) as f32);
+        let error = rounding_error(point, radius.abs() as f32) + magnitude * F64_SLOP;
+        return Some(Hit { t: t as f32, point, normal, uv: Vec2::ZERO, error });
+    }
+    None
+}
+
+/// The error bound of a point of a curved surface (radius of curvature `radius`) rounded from f64 to
+/// f32: half an ulp per coordinate, and, on every axis, how far that rounding can take the point
+/// below the surface across its curve (`|q|^2 / 2r`, at most `|q|`), so that a ray spawned past the
+/// bound along the normal starts off the surface even where the surface turns within the box.
+#[inline]
+fn rounding_error(point: Vec3A, radius: f32) -> Vec3A {
+    let q = point.abs() * gamma(1);
+    let depth = (q.length_squared() / (2.0 * radius)).min(q.length());
+    q + Vec3A::splat(if depth.is_nan() { q.length() } else { depth })
+}
+
+/// A bound on the relative error of the few dozen f64 operations behind a hit point (each within
+/// 2^-53), for the error bound of points computed in f64 and rounded to f32.
+const F64_SLOP: f32 = 1.0 / (1u64 << 44) as f32;
+
+/// `query` on the canonical form of `ray` ([`Ray::canonical`]), its answer's `t` taken back: every
+/// routine answers alike for directions `2^k d`.
+#[inline(always)]
+fn on_canonical(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interval) -> Option<Hit>) -> Option<Hit> {
+    let (ray, s) = ray.canonical()?;
+    query(&ray, t_range.scaled(1.0 / s)).map(|h| Hit { t: h.t * s, ..h })
+}
+
+/// [`raylume_geometry::orthonormal_basis`] in f64.
+#[inline]
+fn basis64(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let sign = 1.0f64.copysign(n[2]);
+    let a = -1.0 / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    ([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]], [b, sign + n[1] * n[1] * a, -n[1]])
+}
+
+#[inline(always)]
+fn v64(v: Vec3A) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
+#[inline(always)]
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline(always)]
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The real roots of `a t^2 + b t + c = 0` in increasing order, computed without cancellation.
 #[inline]
-fn solve_quadratic(a: f32, b: f32, c: f32) -> Option<[f32; 2]> {
+fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<[f64; 2]> {
     if a == 0.0 {
         if b == 0.0 {
             return None;
@@ -240,12 +360,12 @@ fn solve_quadratic(a: f32, b: f32, c: f32) -> Option<[f32; 2]> {
         let t = -c / b;
         return Some([t, t]);
     }
-    let disc = (b as f64) * (b as f64) - 4.0 * (a as f64) * (c as f64);
-    if disc < 0.0 || !disc.is_finite() {
+    let disc = b * b - 4.0 * a * c;
+    if !(0.0..f64::INFINITY).contains(&disc) {
         return None;
     }
-    let q = -0.5 * (b as f64 + disc.sqrt().copysign(b as f64));
-    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { ((q / a as f64) as f32, (c as f64 / q) as f32) };
+    let q = -0.5 * (b + disc.sqrt().copysign(b));
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
     Some(if t0 <= t1 { [t0, t1] } else { [t1, t0] })
 }
 
@@ -253,11 +373,4 @@ fn solve_quadratic(a: f32, b: f32, c: f32) -> Option<[f32; 2]> {
 #[inline]
 fn travel_error(ray: &Ray, t: f32, n: i32) -> Vec3A {
     (ray.origin.abs() + (ray.dir * t).abs()) * gamma(n)
-}
-
-/// `|v|^2` in f64 (each square exact).
-#[inline]
-fn sq64(v: Vec3A) -> f64 {
-    let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
-    x * x + y * y + z * z
 }

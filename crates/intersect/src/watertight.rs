@@ -81,7 +81,9 @@ impl TriangleHit {
     #[inline]
     pub fn hit(&self, tri: &Triangle) -> Hit {
         let [b0, b1, b2] = self.b;
-        let point = tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2;
+        // Within the vertices' box, as the exact point is: rounding must not take it out.
+        let point = (tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2)
+            .clamp(tri.p[0].min(tri.p[1]).min(tri.p[2]), tri.p[0].max(tri.p[1]).max(tri.p[2]));
         let error = ((tri.p[0] * b0).abs() + (tri.p[1] * b1).abs() + (tri.p[2] * b2).abs()) * gamma(7);
         Hit { t: self.t, point, normal: self.normal, uv: Vec2::new(b1, b2), error }
     }
@@ -107,8 +109,16 @@ impl TriangleHit {
 /// ```
 #[inline]
 pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
-    let sheared = ShearedRay::new(ray)?;
-    watertight_decide(tri, &sheared, t_range).map(|h| h.hit(tri))
+    let (ray, s) = ray.canonical()?;
+    let sheared = ShearedRay::new(&ray)?;
+    watertight_decide(tri, &sheared, t_range.scaled(1.0 / s)).map(|h| Hit { t: h.t * s, ..h.hit(tri) })
+}
+
+/// Whether `ray` hits `tri` within `(0, t_max)`: [`watertight_hits`] on the canonical ray.
+#[inline]
+pub(crate) fn occludes(tri: &Triangle, ray: &Ray, t_max: f32) -> bool {
+    let Some((ray, s)) = ray.canonical() else { return false };
+    ShearedRay::new(&ray).is_some_and(|sheared| watertight_hits(tri, &sheared, Interval::new(0.0, t_max / s)))
 }
 
 /// The decision of [`intersect_watertight`] for a prepared ray: whether the ray hits `tri` with `t`
@@ -126,23 +136,35 @@ pub fn watertight_hits(tri: &Triangle, ray: &ShearedRay, t_range: Interval) -> b
     decide::<false>(tri, ray, t_range).is_some()
 }
 
-/// The decision; `REFINE` computes the hit's distance on the vertices' plane in f64.
+/// A bound on the rounding error of the edge function `p q - r s` computed in f32 from f32 inputs:
+/// where the computed value exceeds it in magnitude, its sign is the exact sign. The absolute term
+/// covers products that fall below the normal range.
+#[inline(always)]
+pub fn edge_error(pq: f32, rs: f32) -> f32 {
+    (pq.abs() + rs.abs()) * gamma(3) + f32::MIN_POSITIVE
+}
+
+/// The edge function `p q - r s` with its exact sign: the f32 value where its error bound leaves no
+/// doubt, else the value in f64 (where the products are exact) rounded to f32. It depends only on the
+/// edge's two endpoints, and swapping them negates it exactly, so two triangles sharing an edge
+/// classify every ray alike: the test is watertight.
+#[inline(always)]
+fn exact_edge(p: f32, q: f32, r: f32, s: f32) -> f32 {
+    let (pq, rs) = (p * q, r * s);
+    let e = pq - rs;
+    if e.abs() > edge_error(pq, rs) { e } else { (p as f64 * q as f64 - r as f64 * s as f64) as f32 }
+}
+
+/// The decision; `REFINE` reports the distance to the vertices' plane computed in f64.
 #[inline(always)]
 fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interval) -> Option<TriangleHit> {
     let sz = ray.shear[2];
     let [ax, ay, a_z] = ray.transform(tri.p[0]);
     let [bx, by, b_z] = ray.transform(tri.p[1]);
     let [cx, cy, c_z] = ray.transform(tri.p[2]);
-    let mut u = cx * by - cy * bx;
-    let mut v = ax * cy - ay * cx;
-    let mut w = bx * ay - by * ax;
-    if u == 0.0 || v == 0.0 || w == 0.0 {
-        // On an edge within f32 rounding: decide it in f64, where these products are exact.
-        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
-        u = f(cx, by, cy, bx);
-        v = f(ax, cy, ay, cx);
-        w = f(bx, ay, by, ax);
-    }
+    let u = exact_edge(cx, by, cy, bx);
+    let v = exact_edge(ax, cy, ay, cx);
+    let w = exact_edge(bx, ay, by, ax);
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;
     }
@@ -155,31 +177,41 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     // t in f64 from the exact products: the same t whatever the order of the vertices.
     let t = ((u as f64 * az as f64 + v as f64 * bz as f64 + w as f64 * cz as f64) / (u as f64 + v as f64 + w as f64))
         as f32;
-    if !t_range.contains(t) {
+    let delta_t = distance_error(ray, [ax, bx, cx], [ay, by, cy], [az, bz, cz], [u, v, w], inv);
+    // Out of the range even with the error of t (a NaN bound rejects nothing here).
+    if t - delta_t > t_range.max || t + delta_t < t_range.min {
         return None;
     }
-    // pbrt-v4's bound on the error of t: a hit closer than it may be the surface the ray left.
-    let max_zt = az.abs().max(bz.abs()).max(cz.abs());
-    let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
-    let max_yt = ay.abs().max(by.abs()).max(cy.abs());
+    let normal = unit_normal(tri)?;
+    let t = if t > delta_t {
+        if REFINE { plane_distance64(tri, ray).map_or(t, |(t, _)| t) } else { t }
+    } else {
+        // Too close to call in f32 (needles and tiny triangles far away have error bounds larger than
+        // their distance): the distance to the vertices' plane in f64, whose bound is 2^29 times
+        // smaller, decides; a ray leaving the surface (its origin offset past the f32 error box) is
+        // then behind it.
+        match plane_distance64(tri, ray) {
+            Some((t, bound)) if t as f64 > bound => t,
+            _ => return None,
+        }
+    };
+    if !t_range.contains(t) || t <= 0.0 {
+        return None;
+    }
+    Some(TriangleHit { t, b: [u * inv, v * inv, w * inv], normal })
+}
+
+/// pbrt-v4's bound on the error of the distance `t` the test forms from the sheared vertices and the
+/// edge functions: a hit closer than it may be the surface the ray left.
+#[inline(always)]
+fn distance_error(_ray: &ShearedRay, x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [f32; 3], inv: f32) -> f32 {
+    let max3 = |v: [f32; 3]| v[0].abs().max(v[1].abs()).max(v[2].abs());
+    let (max_zt, max_xt, max_yt, max_e) = (max3(z), max3(x), max3(y), max3(e));
     let delta_z = gamma(3) * max_zt;
     let delta_x = gamma(5) * (max_xt + max_zt);
     let delta_y = gamma(5) * (max_yt + max_zt);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = u.abs().max(v.abs()).max(w.abs());
-    let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs();
-    if delta_t.is_nan() || t <= delta_t {
-        // Too close to call in f32: needles and tiny triangles far away have error bounds larger than
-        // their distance. Decide again in f64, whose bound is 2^29 times smaller; a ray leaving the
-        // surface (its origin offset past the f32 error box) is then behind it, exactly.
-        return watertight_f64(tri, ray, t_range);
-    }
-    let normal = unit_normal(tri)?;
-    // The hit is decided; its distance is refined on the plane through the vertices, in f64, where
-    // the differences and cross products of f32 coordinates are (nearly) exact. This keeps t at a few
-    // ulps even for large triangles seen at grazing angles, where the sheared coordinates lose it.
-    let t = if REFINE { refined_distance(tri, ray, t_range, t) } else { t };
-    Some(TriangleHit { t, b: [u * inv, v * inv, w * inv], normal })
+    3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs()
 }
 
 /// Whether the watertight test can hit `tri` at all: a triangle without a unit normal (zero area in
@@ -189,79 +221,59 @@ pub fn has_unit_normal(tri: &Triangle) -> bool {
     unit_normal(tri).is_some()
 }
 
-/// The triangle's unit normal; `None` for degenerate triangles.
+/// The triangle's unit normal, formed in f64 so that neither huge nor tiny triangles over- or
+/// underflow; `None` for degenerate (collinear in f32) triangles.
 #[inline]
-fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
-    let normal = tri.normal().normalize_or_zero();
-    (normal != Vec3A::ZERO && normal.is_finite()).then_some(normal)
+pub fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
+    let n = normal64(tri);
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    if !(len > 0.0 && len.is_finite()) {
+        return None;
+    }
+    Some(Vec3A::new((n[0] / len) as f32, (n[1] / len) as f32, (n[2] / len) as f32))
 }
 
-/// The distance of a hit that [`watertight_decide`] accepted at `t` within `t_range`, as it reports it:
-/// the distance to the plane through the vertices, computed in f64, when that is within the range;
-/// else `t`. Accelerators that decide hits by the same operations in vector registers refine the
-/// accepted ones with it.
-#[inline]
-pub fn refined_distance(tri: &Triangle, ray: &ShearedRay, t_range: Interval, t: f32) -> f32 {
-    plane_distance64(tri, ray).filter(|t| t_range.contains(*t)).unwrap_or(t)
+/// The magnitudes `|e1| x |e2|` (each term of the cross product taken positive) that bound the
+/// rounding of [`normal64`]'s components.
+#[inline(always)]
+fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
+    let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
+    let e1 = [0, 1, 2].map(|k| (p[1][k] - p[0][k]).abs());
+    let e2 = [0, 1, 2].map(|k| (p[2][k] - p[0][k]).abs());
+    [e1[1] * e2[2] + e1[2] * e2[1], e1[2] * e2[0] + e1[0] * e2[2], e1[0] * e2[1] + e1[1] * e2[0]]
 }
 
-/// The ray parameter where the ray meets the plane of the triangle's vertices, computed in f64.
-#[inline]
-fn plane_distance64(tri: &Triangle, ray: &ShearedRay) -> Option<f32> {
+/// `(p1 - p0) x (p2 - p0)` in f64.
+#[inline(always)]
+fn normal64(tri: &Triangle) -> [f64; 3] {
     let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
     let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
     let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+}
+
+/// The ray parameter where the ray meets the plane of the triangle's vertices, computed in f64, with
+/// a bound on its error; `None` where the ray is parallel to the plane or the distance is not finite.
+#[inline]
+fn plane_distance64(tri: &Triangle, ray: &ShearedRay) -> Option<(f32, f64)> {
+    let n = normal64(tri);
+    let p0 = [tri.p[0].x as f64, tri.p[0].y as f64, tri.p[0].z as f64];
     let (o, d) = (
         [ray.origin.x as f64, ray.origin.y as f64, ray.origin.z as f64],
         [ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64],
     );
+    let q = [p0[0] - o[0], p0[1] - o[1], p0[2] - o[2]];
     let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-    let num = n[0] * (p[0][0] - o[0]) + n[1] * (p[0][1] - o[1]) + n[2] * (p[0][2] - o[2]);
-    let t = (num / den) as f32;
-    (den != 0.0 && t.is_finite()).then_some(t)
-}
-
-/// The watertight test carried out entirely in f64 (exact differences and products of f32 inputs),
-/// with pbrt-v4's t bound for f64 roundings: the fallback for hits too close to call in f32.
-#[cold]
-fn watertight_f64(tri: &Triangle, ray: &ShearedRay, t_range: Interval) -> Option<TriangleHit> {
-    let g = |n: f64| n * (f64::EPSILON * 0.5) / (1.0 - n * (f64::EPSILON * 0.5));
-    let d = ray.dir.to_array().map(f64::from);
-    let o = ray.origin.to_array().map(f64::from);
-    let [kx, ky, kz] = ray.axes;
-    let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-    let rel = |v: Vec3A| {
-        let p = v.to_array().map(f64::from);
-        let q = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
-        (q[kx] - sx * q[kz], q[ky] - sy * q[kz], sz * q[kz])
-    };
-    let (ax, ay, az) = rel(tri.p[0]);
-    let (bx, by, bz) = rel(tri.p[1]);
-    let (cx, cy, cz) = rel(tri.p[2]);
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+    let num = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
+    let t = num / den;
+    if den == 0.0 || !t.is_finite() || !(t as f32).is_finite() {
         return None;
     }
-    let det = u + v + w;
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let t = (u * az + v * bz + w * cz) / det;
-    let (max_zt, max_xt, max_yt) = (
-        az.abs().max(bz.abs()).max(cz.abs()),
-        ax.abs().max(bx.abs()).max(cx.abs()),
-        ay.abs().max(by.abs()).max(cy.abs()),
-    );
-    let (delta_z, delta_x, delta_y) = (g(3.0) * max_zt, g(5.0) * (max_xt + max_zt), g(5.0) * (max_yt + max_zt));
-    let delta_e = 2.0 * (g(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = u.abs().max(v.abs()).max(w.abs());
-    let delta_t = 3.0 * (g(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det.abs();
-    if t.is_nan() || t <= delta_t || !t_range.contains(t as f32) || (t as f32) <= 0.0 {
-        return None;
-    }
-    let normal = unit_normal(tri)?;
-    Some(TriangleHit { t: t as f32, b: [(u / det) as f32, (v / det) as f32, (w / det) as f32], normal })
+    // Each of n, q and the dot products carries a few f64 roundings: a relative 2^-48 of the sums of
+    // magnitudes (those of n's products included) bounds them all.
+    let g = 1.0 / (1u64 << 48) as f64;
+    let nabs = normal64_magnitude(tri);
+    let mag = |v: [f64; 3]| nabs[0] * v[0].abs() + nabs[1] * v[1].abs() + nabs[2] * v[2].abs();
+    let bound = g * (mag(q) + t.abs() * mag(d)) / den.abs();
+    Some((t as f32, bound))
 }

@@ -7,10 +7,8 @@
 
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
-use raylume_intersect::{ShearedRay, TriangleHit};
-use std::arch::x86_64::{
-    __m128, __m256, __m256i, _CMP_EQ_OQ, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_OQ,
-};
+use raylume_intersect::ShearedRay;
+use std::arch::x86_64::{__m128, __m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
 
 use super::stream::{Leaves, PacketQuery};
 use super::triangles::{Exact, Filter, Leaf};
@@ -377,6 +375,8 @@ struct Edges {
     u: __m256,
     v: __m256,
     w: __m256,
+    /// The edge functions' error bounds (`raylume_intersect::edge_error`).
+    error: [__m256; 3],
 }
 
 /// [`Edges`] of `leaf` for `ray`, with the very operations of [`candidates`](super::triangles::candidates).
@@ -406,50 +406,46 @@ fn edges(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> Edges {
         }};
     }
     let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (sheared!(0), sheared!(1), sheared!(2));
+    let sign = avx._mm256_set1_ps(-0.0);
+    let (g3, tiny) = (avx._mm256_set1_ps(gamma(3)), avx._mm256_set1_ps(f32::MIN_POSITIVE));
     macro_rules! edge {
-        ($p:ident, $q:ident, $r:ident, $s:ident) => {
-            avx._mm256_sub_ps(avx._mm256_mul_ps($p, $q), avx._mm256_mul_ps($r, $s))
-        };
+        ($p:ident, $q:ident, $r:ident, $s:ident) => {{
+            let (pq, rs) = (avx._mm256_mul_ps($p, $q), avx._mm256_mul_ps($r, $s));
+            let magnitude = avx._mm256_add_ps(avx._mm256_andnot_ps(sign, pq), avx._mm256_andnot_ps(sign, rs));
+            (avx._mm256_sub_ps(pq, rs), avx._mm256_add_ps(avx._mm256_mul_ps(magnitude, g3), tiny))
+        }};
     }
-    let (u, v, w) = (edge!(cx, by, cy, bx), edge!(ax, cy, ay, cx), edge!(bx, ay, by, ax));
-    Edges { x: [ax, bx, cx], y: [ay, by, cy], z: [az, bz, cz], u, v, w }
+    let ((u, eu), (v, ev), (w, ew)) = (edge!(cx, by, cy, bx), edge!(ax, cy, ay, cx), edge!(bx, ay, by, ax));
+    Edges { x: [ax, bx, cx], y: [ay, by, cy], z: [az, bz, cz], u, v, w, error: [eu, ev, ew] }
 }
 
-/// The lanes where any of the three edge functions compares with zero as `$op`.
-macro_rules! any_edge {
-    ($avx:ident, $e:ident, $op:ident) => {{
-        let zero = $avx._mm256_setzero_ps();
-        $avx._mm256_or_ps(
-            $avx._mm256_or_ps($avx._mm256_cmp_ps::<$op>($e.u, zero), $avx._mm256_cmp_ps::<$op>($e.v, zero)),
-            $avx._mm256_cmp_ps::<$op>($e.w, zero),
-        )
-    }};
-}
-
-/// The candidate lanes of a leaf of `count` triangles: those whose edge functions are not non-zero
-/// with mixed signs.
+/// The candidate lanes of a leaf of `count` triangles: all but those with two edge functions of
+/// opposite signs beyond their error bounds.
 #[inline(always)]
 fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
     let avx = simd.avx;
-    let (negative, positive, on_edge) =
-        (any_edge!(avx, e, _CMP_LT_OQ), any_edge!(avx, e, _CMP_GT_OQ), any_edge!(avx, e, _CMP_EQ_OQ));
-    let rejected = avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32
-        & !(avx._mm256_movemask_ps(on_edge) as u32);
+    let sign = avx._mm256_set1_ps(-0.0);
+    let [eu, ev, ew] = e.error;
+    let below = |x: __m256, err: __m256| avx._mm256_cmp_ps::<_CMP_LT_OQ>(x, avx._mm256_xor_ps(err, sign));
+    let above = |x: __m256, err: __m256| avx._mm256_cmp_ps::<_CMP_GT_OQ>(x, err);
+    let negative = avx._mm256_or_ps(avx._mm256_or_ps(below(e.u, eu), below(e.v, ev)), below(e.w, ew));
+    let positive = avx._mm256_or_ps(avx._mm256_or_ps(above(e.u, eu), above(e.v, ev)), above(e.w, ew));
+    let rejected = avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32;
     !rejected & ((1 << count) - 1)
 }
 
 /// The any-hit verdict of a leaf's lanes, decided in AVX registers with the operations of the scalar
 /// watertight test: `hit`, lanes the scalar test accepts; `open`, candidates it must decide itself
-/// (an edge function zero or NaN, or a distance too close to call in f32, where it goes on in f64).
+/// (an edge function within its rounding error of zero, or a distance too close to call in f32).
 /// Every other lane is one the scalar test rejects.
-/// With them, each lane's distance (rounded from f64, as the scalar test's) and the reciprocal of its
-/// determinant (the barycentrics' scale), meaningful in the `hit` lanes.
+/// With them, each lane's distance (rounded from f64, as the scalar test's) and the bound on its
+/// error, meaningful in the `hit` lanes.
 #[derive(Clone, Copy, Debug)]
 struct Verdict {
     hit: u32,
     open: u32,
     t: __m256,
-    inv: __m256,
+    delta_t: __m256,
 }
 
 /// The [`Verdict`] of the `candidates` lanes of a leaf whose triangles all have a unit normal (the BVH
@@ -457,16 +453,17 @@ struct Verdict {
 #[inline(always)]
 fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interval) -> Verdict {
     let avx = simd.avx;
-    // Lanes the vector test decides: no edge function zero (the scalar test recomputes those in f64)
-    // or NaN (a NaN among the maxima below would be taken where `f32::max` skips it).
+    // Lanes the vector test decides: every edge function beyond its error bound (the scalar test
+    // recomputes the others in f64), so none is NaN either (a NaN among the maxima below would be taken
+    // where `f32::max` skips it).
     let zero = avx._mm256_setzero_ps();
-    let nonzero = avx._mm256_and_ps(
-        avx._mm256_and_ps(avx._mm256_cmp_ps::<_CMP_NEQ_OQ>(e.u, zero), avx._mm256_cmp_ps::<_CMP_NEQ_OQ>(e.v, zero)),
-        avx._mm256_cmp_ps::<_CMP_NEQ_OQ>(e.w, zero),
-    );
-    let decided = candidates & avx._mm256_movemask_ps(nonzero) as u32;
+    let sign = avx._mm256_set1_ps(-0.0);
+    let certain = |x: __m256, err: __m256| avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_andnot_ps(sign, x), err);
+    let [eu, ev, ew] = e.error;
+    let sure = avx._mm256_and_ps(avx._mm256_and_ps(certain(e.u, eu), certain(e.v, ev)), certain(e.w, ew));
+    let decided = candidates & avx._mm256_movemask_ps(sure) as u32;
     if decided == 0 {
-        return Verdict { hit: 0, open: candidates, t: zero, inv: zero };
+        return Verdict { hit: 0, open: candidates, t: zero, delta_t: zero };
     }
     let sz = avx._mm256_set1_ps(ray.shear[2]);
     let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
@@ -508,39 +505,40 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
         finite(t),
     );
     // The scalar test rejects a lane whose determinant is not finite (it is not zero: the edge functions
-    // are non-zero and of one sign) or whose distance is out of range; it accepts one whose distance is
-    // beyond the error bound (a NaN bound compares false: the f64 test decides), the normal known.
-    let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
+    // are non-zero and of one sign) or whose distance is out of the range by more than its error bound;
+    // it accepts one whose distance is in the range and beyond the error bound (a NaN bound compares
+    // false: the f64 distance decides), the normal known.
+    let out = avx._mm256_or_ps(
+        avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_sub_ps(t, delta_t), splat(range.max)),
+        avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_add_ps(t, delta_t), splat(range.min)),
+    );
+    let rejected = decided
+        & avx
+            ._mm256_movemask_ps(avx._mm256_or_ps(out, avx._mm256_cmp_ps::<_CMP_NLT_UQ>(abs(det), splat(f32::INFINITY))))
+            as u32;
     let beyond = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)) as u32;
-    let hit = decided & kept & beyond;
-    Verdict { hit, open: (candidates & !decided) | (decided & kept & !beyond), t, inv }
+    let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
+    let hit = decided & kept & beyond & !rejected;
+    Verdict { hit, open: candidates & !hit & !rejected, t, delta_t }
 }
 
-/// [`Filter::closest_of_candidates`] with the lanes' verdict, distance and barycentrics from AVX
-/// registers: the candidates are taken in turn as the scalar loop takes them, the scalar test run only
-/// for the lanes the verdict leaves open, and an accepted lane's distance refined as it refines it.
+/// [`Filter::closest_of_candidates`] with the lanes' verdict from AVX registers: the candidates are
+/// taken in turn as the scalar loop takes them, and the scalar test decides every lane the verdict
+/// does not reject (an accepted lane beyond the narrowed range by more than its error bound is one
+/// the scalar test rejects, and is skipped), so the answer is the scalar loop's, bit for bit.
 #[inline(always)]
 fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
-    let avx = simd.avx;
     let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
     let e = edges(simd, leaf, ray);
-    let Verdict { hit, open, t, inv } = verdict(simd, &e, test.lanes, ray, range);
+    let Verdict { hit, open, t, delta_t } = verdict(simd, &e, test.lanes, ray, range);
     if hit == 0 {
         return super::closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
-    let t: [f32; 8] = pulp::cast(t);
-    let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
+    let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
     for bit in set_bits(hit | open) {
         let i = bit as usize;
-        if open & (1 << bit) != 0 {
+        if hit & (1 << bit) == 0 || t[i] - delta_t[i] <= range.max {
             test.decide(bit, &mut range);
-        } else if t[i] <= range.max {
-            // Accepted as the scalar test accepts it (its distance within the range, which only narrows).
-            let tri = leaf.triangle(bit);
-            let t = raylume_intersect::refined_distance(&tri, ray, range, t[i]);
-            let normal = tri.normal().normalize_or_zero();
-            range = range.with_max(t);
-            *test.found = Some((TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]], normal }, test.first as u32, bit));
         }
     }
     range.max
@@ -617,6 +615,7 @@ impl Filter for V3 {
 mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Triangle, Vec3A};
+    use raylume_intersect::TriangleHit;
 
     use super::super::triangles::Portable;
     use super::super::triangles::tests::arb_point;
@@ -669,7 +668,9 @@ mod tests {
         range: Interval,
     ) -> (f32, Option<(TriangleHit, u32, u32)>) {
         let mut found = None;
-        let end = filter.closest_of_candidates(Candidates { leaf, first: 3, lanes, ray, range, found: &mut found });
+        let leaves = std::slice::from_ref(leaf);
+        let test = Candidates { leaf, leaves, first: 0, lanes, ray, range, found: &mut found };
+        let end = filter.closest_of_candidates(test);
         (end, found)
     }
 

@@ -14,7 +14,7 @@ mod wide;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
-use raylume_geometry::{Aabb, Interval, Ray};
+use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit, has_unit_normal};
 use stream::PacketQuery;
 use triangles::{Exact, Filter, LANES, Leaf, Portable};
@@ -269,7 +269,7 @@ fn closest_in_leaf<F: Filter>(
     if lanes == 0 {
         range.max
     } else {
-        let test = Candidates { leaf: &leaves[first], first, lanes, ray, range, found };
+        let test = Candidates { leaf: &leaves[first], leaves, first, lanes, ray, range, found };
         closest_of_candidates(ClosestOfCandidates { filter, test })
     }
 }
@@ -285,6 +285,8 @@ fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
 /// the ray, its range, and the closest hit so far with its leaf and candidate bit.
 struct Candidates<'a> {
     leaf: &'a Leaf,
+    /// Every leaf, to read the primitive of the hit so far (ties go to the lowest primitive index).
+    leaves: &'a [Leaf],
     first: usize,
     lanes: u32,
     ray: &'a ShearedRay,
@@ -298,8 +300,15 @@ impl Candidates<'_> {
     #[inline(always)]
     fn decide(&mut self, bit: u32, range: &mut Interval) {
         if let Some(h) = raylume_intersect::watertight_decide(&self.leaf.triangle(bit), self.ray, *range) {
-            *range = range.with_max(h.t);
-            *self.found = Some((h, self.first as u32, bit));
+            // A hit at the distance of the one so far replaces it only if its primitive comes first.
+            let wins = match *self.found {
+                Some((f, leaf, b)) if f.t == h.t => self.leaf.id(bit) < self.leaves[leaf as usize].id(b),
+                _ => true,
+            };
+            if wins {
+                *range = range.with_max(h.t);
+                *self.found = Some((h, self.first as u32, bit));
+            }
         }
     }
 }
@@ -472,7 +481,7 @@ impl<P: Intersect> Bvh<P> {
             tally.tested();
             if let Some(hit) = p.intersect(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                best = Some(PrimitiveHit { hit, primitive: *id });
+                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
             }
         }
         if let Some((tree, prims, ids)) = &self.others {
@@ -488,7 +497,7 @@ impl<P: Intersect> Bvh<P> {
                         tally.tested();
                         if let Some(hit) = prims[i].intersect(ray, range) {
                             range = range.with_max(hit.t);
-                            best = Some(PrimitiveHit { hit, primitive: ids[i] });
+                            best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
                         }
                     }
                     range.max
@@ -510,6 +519,21 @@ impl<P: Intersect> Bvh<P> {
             })
         })
     }
+}
+
+/// The canonical forms of up to a packet of `rays` ([`Ray::canonical`]) and their common scale; `None`
+/// if a ray is not valid or the scales differ.
+fn same_scale(rays: &[Ray]) -> Option<([Ray; stream::PACKET], f32)> {
+    let mut canonical = [Ray::new(Vec3A::ZERO, Vec3A::ZERO); stream::PACKET];
+    let mut scale = None;
+    for (ray, c) in rays.iter().zip(&mut canonical) {
+        let (r, s) = ray.canonical()?;
+        if *scale.get_or_insert(s) != s {
+            return None;
+        }
+        *c = r;
+    }
+    scale.map(|s| (canonical, s))
 }
 
 impl<P: Intersect> Bvh<P> {
@@ -562,11 +586,9 @@ impl<P: Intersect> Bvh<P> {
     }
 }
 
-impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
-    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        if !ray.is_valid() {
-            return None;
-        }
+impl<P: Intersect> Bvh<P> {
+    /// [`Accelerator::closest_hit_tally`] of a canonical ray.
+    fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         // Meshes have no other shapes: no hit to carry over then.
         let mut best = if self.others.is_some() || !self.unbounded.is_empty() {
             self.closest_other(ray, t_range, tally)
@@ -593,16 +615,17 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             };
             if let Some((h, leaf, bit)) = found {
                 let leaf = &leaves[leaf as usize];
-                best = Some(PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) });
+                best = PrimitiveHit::closer(
+                    best,
+                    PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) },
+                );
             }
         }
         best
     }
 
-    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
-        if !ray.is_valid() || t_max.is_nan() {
-            return false;
-        }
+    /// [`Accelerator::occluded_tally`] of a canonical ray.
+    fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         if self.unbounded.iter().any(|(p, _)| {
             tally.tested();
             p.occluded(ray, t_max)
@@ -629,13 +652,34 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }
         self.occluded_other(ray, t_max, tally)
     }
+}
+
+impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
+    fn closest_hit_tally<T: Tally>(&self, ray: &Ray, t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+        crate::closest_on_canonical(ray, t_range, |ray, t_range| self.closest_canonical(ray, t_range, tally))
+    }
+
+    fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+        crate::occluded_on_canonical(ray, t_max, |ray, t_max| self.occluded_canonical(ray, t_max, tally))
+    }
 
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
         for (rays, hits) in rays.chunks(stream::PACKET).zip(hits.chunks_mut(stream::PACKET)) {
-            match (&self.triangles, stream::common_signs(rays)) {
-                (Some(tris), Some(negative)) if !t_range.min.is_nan() && !t_range.max.is_nan() => {
-                    self.closest_packet(tris, rays, negative, t_range, hits)
+            // A packet walks the canonical rays when they share one scale (unit directions do).
+            let scaled = same_scale(rays);
+            match (&self.triangles, &scaled) {
+                (Some(tris), Some((canonical, s))) if !t_range.min.is_nan() && !t_range.max.is_nan() => {
+                    let canonical = &canonical[..rays.len()];
+                    match stream::common_signs(canonical) {
+                        Some(negative) => {
+                            self.closest_packet(tris, canonical, negative, t_range.scaled(1.0 / s), hits);
+                            for h in hits.iter_mut().flatten() {
+                                h.hit.t *= s;
+                            }
+                        }
+                        None => closest_ray_by_ray(self, rays, t_range, hits),
+                    }
                 }
                 _ => closest_ray_by_ray(self, rays, t_range, hits),
             }
@@ -645,9 +689,14 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
         for (rays, occluded) in rays.chunks(stream::PACKET).zip(occluded.chunks_mut(stream::PACKET)) {
-            match (&self.triangles, stream::common_signs(rays)) {
-                (Some(tris), Some(negative)) if !t_max.is_nan() => {
-                    self.occluded_packet(tris, rays, negative, t_max, occluded)
+            let scaled = same_scale(rays);
+            match (&self.triangles, &scaled) {
+                (Some(tris), Some((canonical, s))) if !t_max.is_nan() => {
+                    let canonical = &canonical[..rays.len()];
+                    match stream::common_signs(canonical) {
+                        Some(negative) => self.occluded_packet(tris, canonical, negative, t_max / s, occluded),
+                        None => occluded_ray_by_ray(self, rays, t_max, occluded),
+                    }
                 }
                 _ => occluded_ray_by_ray(self, rays, t_max, occluded),
             }

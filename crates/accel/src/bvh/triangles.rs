@@ -3,9 +3,10 @@
 //! few exactly as the scalar test does.
 //!
 //! [`watertight_decide`]: raylume_intersect::watertight_decide
+//! [`edge_error`]: raylume_intersect::edge_error
 
 use glam::Vec4;
-use raylume_geometry::{Interval, Triangle, Vec3A};
+use raylume_geometry::{Interval, Triangle, Vec3A, gamma};
 use raylume_intersect::ShearedRay;
 
 use super::Candidates;
@@ -99,9 +100,9 @@ impl Leaf {
 }
 
 /// The mask of the first `count` lanes that the watertight test may accept: it rejects a triangle
-/// when its three edge functions are non-zero and of mixed signs, and these are computed with the very
-/// operations of [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the
-/// scalar test rejects too.
+/// only when two of its edge functions have opposite signs beyond their rounding error
+/// ([`edge_error`]), computed with the very operations of [`ShearedRay::transform`] and
+/// `watertight_decide`, so a lane left out here is one the exact decision rejects too.
 #[inline(always)]
 pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
@@ -113,14 +114,15 @@ pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
         ((Vec4::from_array(p.v[k][kx]) - ox) - sx * az, (Vec4::from_array(p.v[k][ky]) - oy) - sy * az)
     };
     let ((ax, ay), (bx, by), (cx, cy)) = (sheared(0), sheared(1), sheared(2));
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    let zero = Vec4::ZERO;
-    let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-    let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
-    let on_edge = u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero);
-    let rejected = (negative & positive).bitmask() & !on_edge.bitmask();
+    // Each edge function with its error bound (the scalar `edge_error`, lane by lane).
+    let edge = |p: Vec4, q: Vec4, r: Vec4, s: Vec4| {
+        let (pq, rs) = (p * q, r * s);
+        (pq - rs, (pq.abs() + rs.abs()) * Vec4::splat(gamma(3)) + Vec4::splat(f32::MIN_POSITIVE))
+    };
+    let ((u, eu), (v, ev), (w, ew)) = (edge(cx, by, cy, bx), edge(ax, cy, ay, cx), edge(bx, ay, by, ax));
+    let negative = u.cmplt(-eu) | v.cmplt(-ev) | w.cmplt(-ew);
+    let positive = u.cmpgt(eu) | v.cmpgt(ev) | w.cmpgt(ew);
+    let rejected = (negative & positive).bitmask();
     !rejected & ((1 << count) - 1)
 }
 
