@@ -223,14 +223,15 @@ impl Film {
                 reader.limits(limits);
                 let decoder = reader.into_decoder().map_err(|e| e.to_string())?;
                 // The header's size is checked before anything is allocated for it: within the
-                // limits, and no more pixels than the file's bytes can hold once decompressed
-                // (deflate, the strongest of these formats' codecs, expands at most about 1032:1).
+                // limits, and no more than 400 pixels per byte of the file (a flat-colour 8-bit RGB
+                // PNG, the most compressible render, holds about 343; decoding takes up to 40 bytes
+                // per pixel, so a small corrupt file cannot ask for gigabytes).
                 let (w, h) = image::ImageDecoder::dimensions(&decoder);
                 let pixels = w as u64 * h as u64;
-                let holds = bytes.len() as u64 * 1100 + (1 << 16);
+                let holds = bytes.len() as u64 * 400 + (1 << 16);
                 if w == 0 || h == 0 || pixels > MAX_IMAGE_PIXELS || pixels > holds {
                     return Err(format!(
-                        "{w}x{h} pixels: expected 1 to {MAX_IMAGE_PIXELS}, and no more than {} bytes can hold",
+                        "{w}x{h} pixels: expected 1 to {MAX_IMAGE_PIXELS}, and at most {holds} for a file of {} bytes",
                         bytes.len()
                     ));
                 }
