@@ -45,23 +45,48 @@ pub struct Grid<P> {
     unbounded: Vec<u32>,
     bounds: Aabb,
     cells: [usize; 3],
-    cell_size: Vec3A,
-    inv_cell_size: Vec3A,
+    /// The lattice in f64: its corner, cell size and the size's reciprocal. Cells are entered and walked
+    /// in f64, where neither the walk nor a far ray origin loses the cell a hit is in.
+    corner: [f64; 3],
+    cell_size: [f64; 3],
+    inv_cell_size: [f64; 3],
     /// `cell_start[c]..cell_start[c + 1]` indexes `items` for cell `c`.
     cell_start: Vec<u32>,
     items: Vec<u32>,
     mailbox: bool,
 }
 
+/// The lattice of `cells` over `bounds`, in f64: corner, cell size, reciprocal.
+fn lattice(bounds: Aabb, cells: [usize; 3]) -> [[f64; 3]; 3] {
+    let corner = bounds.min.to_array().map(f64::from);
+    let size = [0, 1, 2].map(|a| (bounds.max[a] as f64 - corner[a]) / cells[a] as f64);
+    [corner, size, size.map(f64::recip)]
+}
+
+/// The cell of coordinate `x` along axis `a` of a lattice, clamped to the grid.
+#[inline(always)]
+fn coord(x: f64, a: usize, corner: &[f64; 3], inv: &[f64; 3], cells: &[usize; 3]) -> usize {
+    (((x - corner[a]) * inv[a]).max(0.0) as usize).min(cells[a] - 1)
+}
+
+/// The cells a box is entered in, per axis: its f64 extent widened by a relative 2^-40, far more than
+/// the walk's f64 roundings.
+#[inline]
+fn cell_range(b: &Aabb, [corner, _, inv]: &[[f64; 3]; 3], cells: &[usize; 3]) -> [(usize, usize); 3] {
+    [0, 1, 2].map(|a| {
+        let (lo, hi) = (b.min[a] as f64, b.max[a] as f64);
+        let slack = (lo.abs().max(hi.abs()) + corner[a].abs()) * (1.0 / (1u64 << 40) as f64);
+        (coord(lo - slack, a, corner, inv, cells), coord(hi + slack, a, corner, inv, cells))
+    })
+}
+
 /// How many cell entries the bounded boxes of `prim_bounds` make in a grid of `cells` over `bounds`.
 fn entries(prim_bounds: &[Aabb], bounds: Aabb, cells: [usize; 3]) -> u64 {
-    // The same arithmetic as `Grid::cell_coord`.
-    let inv = (bounds.diagonal() / Vec3A::new(cells[0] as f32, cells[1] as f32, cells[2] as f32)).recip();
-    let coord = |p: Vec3A, a: usize| ((((p - bounds.min) * inv)[a].max(0.0)) as usize).min(cells[a] - 1) as u64;
+    let lattice = lattice(bounds, cells);
     prim_bounds
         .iter()
         .filter(|b| b.is_finite() && !b.is_empty())
-        .map(|b| (0..3).map(|a| coord(b.max, a) - coord(b.min, a) + 1).product::<u64>())
+        .map(|b| cell_range(b, &lattice, &cells).iter().map(|&(lo, hi)| (hi - lo + 1) as u64).product::<u64>())
         .fold(0u64, u64::saturating_add)
 }
 
@@ -106,13 +131,13 @@ impl<P: Intersect> Grid<P> {
             }
             per_unit *= 0.8;
         };
-        let cell_size = extent / Vec3A::new(cells[0] as f32, cells[1] as f32, cells[2] as f32);
-        let inv_cell_size = cell_size.recip();
+        let [corner, cell_size, inv_cell_size] = lattice(bounds, cells);
         let mut grid = Self {
             prims,
             unbounded,
             bounds,
             cells,
+            corner,
             cell_size,
             inv_cell_size,
             cell_start: Vec::new(),
@@ -158,22 +183,16 @@ impl<P: Intersect> Grid<P> {
     }
 
     #[inline]
-    fn cell_coord(&self, p: Vec3A) -> [usize; 3] {
-        let c = (p - self.bounds.min) * self.inv_cell_size;
-        [0, 1, 2].map(|a| (c[a].max(0.0) as usize).min(self.cells[a] - 1))
-    }
-
-    #[inline]
     fn cell_index(&self, c: [usize; 3]) -> usize {
         (c[2] * self.cells[1] + c[1]) * self.cells[0] + c[0]
     }
 
     fn for_cells(&self, b: &Aabb, mut f: impl FnMut(usize)) {
-        let lo = self.cell_coord(b.min);
-        let hi = self.cell_coord(b.max);
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
+        let lattice = [self.corner, self.cell_size, self.inv_cell_size];
+        let [(x0, x1), (y0, y1), (z0, z1)] = cell_range(b, &lattice, &self.cells);
+        for z in z0..=z1 {
+            for y in y0..=y1 {
+                for x in x0..=x1 {
                     f(self.cell_index([x, y, z]));
                 }
             }
@@ -181,29 +200,43 @@ impl<P: Intersect> Grid<P> {
     }
 
     /// Walks the cells the ray crosses within `[t_min, t_max]`, nearest first, calling `visit` with
-    /// each cell's primitives and the ray parameter where the ray leaves the cell; `visit` returns
-    /// false to stop.
+    /// each cell's primitives and the ray parameter where the ray leaves the cell (rounded down, so
+    /// that a hit beyond it is beyond the cell); `visit` returns false to stop. In f64: the cells are
+    /// those the ray's exact line crosses, wherever its origin is.
     #[inline]
     fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[u32], f32) -> bool) {
-        let inv = ray.dir.recip();
-        let Some((t0, t1)) = self.bounds.hit_range(ray, inv, t_min, t_max) else { return };
-        let mut cell = self.cell_coord(ray.at(t0));
-        let mut next = [f32::INFINITY; 3];
-        let mut delta = [f32::INFINITY; 3];
+        let (o, d) = (ray.origin.to_array().map(f64::from), ray.dir.to_array().map(f64::from));
+        let (mut t0, mut t1) = (t_min as f64, t_max as f64);
+        for a in 0..3 {
+            let (lo, hi) = (self.bounds.min[a] as f64, self.bounds.max[a] as f64);
+            if d[a] == 0.0 {
+                if o[a] < lo || o[a] > hi {
+                    return;
+                }
+                continue;
+            }
+            let (ta, tb) = ((lo - o[a]) / d[a], (hi - o[a]) / d[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        if !(t0 <= t1) {
+            return;
+        }
+        let (corner, size, inv) = (&self.corner, &self.cell_size, &self.inv_cell_size);
+        let mut cell = [0, 1, 2].map(|a| coord(o[a] + d[a] * t0, a, corner, inv, &self.cells));
+        let mut next = [f64::INFINITY; 3];
+        let mut delta = [f64::INFINITY; 3];
         let mut step = [0isize; 3];
         for a in 0..3 {
-            let d = ray.dir[a];
             // A zero component (0 or -0) never steps on that axis.
-            if d > 0.0 {
+            if d[a] > 0.0 {
                 step[a] = 1;
-                let plane = self.bounds.min[a] + (cell[a] + 1) as f32 * self.cell_size[a];
-                next[a] = (plane - ray.origin[a]) * inv[a];
-                delta[a] = self.cell_size[a] * inv[a];
-            } else if d < 0.0 {
+                next[a] = (corner[a] + (cell[a] + 1) as f64 * size[a] - o[a]) / d[a];
+                delta[a] = size[a] / d[a];
+            } else if d[a] < 0.0 {
                 step[a] = -1;
-                let plane = self.bounds.min[a] + cell[a] as f32 * self.cell_size[a];
-                next[a] = (plane - ray.origin[a]) * inv[a];
-                delta[a] = -self.cell_size[a] * inv[a];
+                next[a] = (corner[a] + cell[a] as f64 * size[a] - o[a]) / d[a];
+                delta[a] = -size[a] / d[a];
             }
         }
         loop {
@@ -215,9 +248,11 @@ impl<P: Intersect> Grid<P> {
                 2
             };
             let exit = next[axis].min(t1);
+            let exit32 = exit as f32;
+            let exit32 = if exit32 as f64 > exit { exit32.next_down() } else { exit32 };
             let c = self.cell_index(cell);
             let items = &self.items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
-            if !visit(items, exit) || next[axis] > t1 {
+            if !visit(items, exit32) || next[axis] > t1 {
                 return;
             }
             let moved = cell[axis] as isize + step[axis];

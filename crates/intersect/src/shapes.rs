@@ -41,9 +41,11 @@ fn sphere_hit(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Option<
     }
     let (t0, t1) = (cc / q, q / a);
     let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-    let t64 = if range.contains(t0 as f32) {
+    // Hits at t <= 0 are the surface the ray starts on, never reported.
+    let ahead = |t: f64| t as f32 > 0.0 && range.contains(t as f32);
+    let t64 = if ahead(t0) {
         t0
-    } else if range.contains(t1 as f32) {
+    } else if ahead(t1) {
         t1
     } else {
         return None;
@@ -129,7 +131,7 @@ pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray, t_range: Interval) -
         return None;
     }
     let t = e2.dot(qvec) * inv_det;
-    if !t_range.contains(t) {
+    if !t_range.contains(t) || t <= 0.0 {
         return None;
     }
     let normal = e1.cross(e2).normalize_or_zero();
@@ -162,7 +164,7 @@ fn plane_hit(plane: &Plane, ray: &Ray, t_range: Interval) -> Option<Hit> {
     }
     let offset = [0, 1, 2].map(|k| plane.point[k] as f64 - ray.origin[k] as f64);
     let t = ((n[0] * offset[0] + n[1] * offset[1] + n[2] * offset[2]) / denom) as f32;
-    if !t_range.contains(t) {
+    if !t_range.contains(t) || t <= 0.0 {
         return None;
     }
     let point = ray.at(t);
@@ -190,10 +192,11 @@ impl Intersect for AaBox {
 fn box_hit(aabox: &AaBox, ray: &Ray, t_range: Interval) -> Option<Hit> {
     let inv = ray.dir.recip();
     let (t0, t1) = aabox.bounds.hit_range(ray, inv, f32::NEG_INFINITY, f32::INFINITY)?;
+    // A ray starting on a face (or an edge) and leaving through it meets the box at t = 0: no hit.
     let entering = t0 > 0.0 && t_range.contains(t0);
     let t = if entering {
         t0
-    } else if t_range.contains(t1) {
+    } else if t1 > 0.0 && t_range.contains(t1) {
         t1
     } else {
         return None;
@@ -272,7 +275,7 @@ fn cone_hit(cone: &Cone, ray: &Ray, range: Interval) -> Option<Hit> {
     let b = 2.0 * (o[0] * d[0] + o[1] * d[1] - k * rz * d[2]);
     let c = o[0] * o[0] + o[1] * o[1] - rz * rz;
     for t in solve_quadratic(a, b, c)? {
-        if !range.contains(t as f32) {
+        if !range.contains(t as f32) || t as f32 <= 0.0 {
             continue;
         }
         let z = o[2] + t * d[2];

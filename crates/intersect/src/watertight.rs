@@ -63,29 +63,29 @@ impl ShearedRay {
     }
 }
 
-/// A decided ray/triangle hit: its distance, barycentrics and the triangle's unit normal. Cheap to
-/// keep while an accelerator looks for a closer one; [`TriangleHit::hit`] makes the full record.
+/// A decided ray/triangle hit: its distance and barycentrics. Cheap to keep while an accelerator
+/// looks for a closer one; [`TriangleHit::hit`] makes the full record.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
     /// The ray parameter.
     pub t: f32,
     /// The barycentrics `(b0, b1, b2)` of the vertices.
     pub b: [f32; 3],
-    /// The unit geometric normal.
-    pub normal: Vec3A,
 }
 
 impl TriangleHit {
     /// The full hit record on `tri`, the triangle this hit was decided on: the point rebuilt from the
-    /// barycentrics (its error bounded by the vertices' magnitude, not the ray's travel).
+    /// barycentrics (its error bounded by the vertices' magnitude, not the ray's travel), and the unit
+    /// normal ([`unit_normal`]; a decided hit's triangle has one).
     #[inline]
     pub fn hit(&self, tri: &Triangle) -> Hit {
+        let normal = unit_normal(tri).unwrap_or(Vec3A::Z);
         let [b0, b1, b2] = self.b;
         // Within the vertices' box, as the exact point is: rounding must not take it out.
         let point = (tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2)
             .clamp(tri.p[0].min(tri.p[1]).min(tri.p[2]), tri.p[0].max(tri.p[1]).max(tri.p[2]));
         let error = ((tri.p[0] * b0).abs() + (tri.p[1] * b1).abs() + (tri.p[2] * b2).abs()) * gamma(7);
-        Hit { t: self.t, point, normal: self.normal, uv: Vec2::new(b1, b2), error }
+        Hit { t: self.t, point, normal, uv: Vec2::new(b1, b2), error }
     }
 }
 
@@ -182,23 +182,27 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     if t - delta_t > t_range.max || t + delta_t < t_range.min {
         return None;
     }
-    let normal = unit_normal(tri)?;
+    // The plane through the vertices, in f64: a degenerate triangle (collinear in f32) has none.
+    let n = normal64(tri);
+    if !(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.0) {
+        return None;
+    }
     let t = if t > delta_t {
-        if REFINE { plane_distance64(tri, ray).map_or(t, |(t, _)| t) } else { t }
+        if REFINE { plane_distance64(tri, n, ray).map_or(t, |t| t as f32) } else { t }
     } else {
         // Too close to call in f32 (needles and tiny triangles far away have error bounds larger than
         // their distance): the distance to the vertices' plane in f64, whose bound is 2^29 times
         // smaller, decides; a ray leaving the surface (its origin offset past the f32 error box) is
         // then behind it.
-        match plane_distance64(tri, ray) {
-            Some((t, bound)) if t as f64 > bound => t,
+        match plane_distance64(tri, n, ray) {
+            Some(t) if t > plane_distance_error(tri, ray, t) => t as f32,
             _ => return None,
         }
     };
     if !t_range.contains(t) || t <= 0.0 {
         return None;
     }
-    Some(TriangleHit { t, b: [u * inv, v * inv, w * inv], normal })
+    Some(TriangleHit { t, b: [u * inv, v * inv, w * inv] })
 }
 
 /// pbrt-v4's bound on the error of the distance `t` the test forms from the sheared vertices and the
@@ -252,28 +256,36 @@ fn normal64(tri: &Triangle) -> [f64; 3] {
     [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
 }
 
-/// The ray parameter where the ray meets the plane of the triangle's vertices, computed in f64, with
-/// a bound on its error; `None` where the ray is parallel to the plane or the distance is not finite.
+/// The ray parameter where the ray meets the plane (normal `n`, [`normal64`]) of the triangle's
+/// vertices, computed in f64; `None` where the ray is parallel to the plane or the distance is not
+/// finite in f32.
 #[inline]
-fn plane_distance64(tri: &Triangle, ray: &ShearedRay) -> Option<(f32, f64)> {
-    let n = normal64(tri);
-    let p0 = [tri.p[0].x as f64, tri.p[0].y as f64, tri.p[0].z as f64];
-    let (o, d) = (
-        [ray.origin.x as f64, ray.origin.y as f64, ray.origin.z as f64],
-        [ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64],
-    );
-    let q = [p0[0] - o[0], p0[1] - o[1], p0[2] - o[2]];
+fn plane_distance64(tri: &Triangle, n: [f64; 3], ray: &ShearedRay) -> Option<f64> {
+    let (q, d) = plane_offsets(tri, ray);
     let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
-    let num = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
-    let t = num / den;
-    if den == 0.0 || !t.is_finite() || !(t as f32).is_finite() {
-        return None;
-    }
-    // Each of n, q and the dot products carries a few f64 roundings: a relative 2^-48 of the sums of
-    // magnitudes (those of n's products included) bounds them all.
-    let g = 1.0 / (1u64 << 48) as f64;
+    let t = (n[0] * q[0] + n[1] * q[1] + n[2] * q[2]) / den;
+    (den != 0.0 && (t as f32).is_finite()).then_some(t)
+}
+
+/// `p0 - o` and `d` in f64.
+#[inline(always)]
+fn plane_offsets(tri: &Triangle, ray: &ShearedRay) -> ([f64; 3], [f64; 3]) {
+    let (p0, o) = (tri.p[0], ray.origin);
+    (
+        [p0.x as f64 - o.x as f64, p0.y as f64 - o.y as f64, p0.z as f64 - o.z as f64],
+        [ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64],
+    )
+}
+
+/// A bound on the error of [`plane_distance64`]'s `t`: each of the normal, the offset and the dot
+/// products carries a few f64 roundings, and a relative 2^-48 of the sums of magnitudes (those of the
+/// normal's products included) bounds them all.
+#[cold]
+fn plane_distance_error(tri: &Triangle, ray: &ShearedRay, t: f64) -> f64 {
+    let (q, d) = plane_offsets(tri, ray);
+    let n = normal64(tri);
     let nabs = normal64_magnitude(tri);
     let mag = |v: [f64; 3]| nabs[0] * v[0].abs() + nabs[1] * v[1].abs() + nabs[2] * v[2].abs();
-    let bound = g * (mag(q) + t.abs() * mag(d)) / den.abs();
-    Some((t as f32, bound))
+    let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    (mag(q) + t.abs() * mag(d)) / den.abs() / (1u64 << 48) as f64
 }

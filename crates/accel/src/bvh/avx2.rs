@@ -507,7 +507,7 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     // The scalar test rejects a lane whose determinant is not finite (it is not zero: the edge functions
     // are non-zero and of one sign) or whose distance is out of the range by more than its error bound;
     // it accepts one whose distance is in the range and beyond the error bound (a NaN bound compares
-    // false: the f64 distance decides), the normal known.
+    // false: the f64 distance decides).
     let out = avx._mm256_or_ps(
         avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_sub_ps(t, delta_t), splat(range.max)),
         avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_add_ps(t, delta_t), splat(range.min)),
@@ -845,13 +845,13 @@ mod tests {
             }
             let expected = Portable.leaf_occluded(&leaf, tris.len(), &ray, range);
             prop_assert_eq!(simd.vectorize(|| simd.leaf_occluded(&leaf, tris.len(), &ray, range)), expected);
-            // The closest hit: the same hit, distance, barycentrics and normal, bit for bit, and the same
+            // The closest hit: the same hit, distance and barycentrics, bit for bit, and the same
             // end of the range, as the scalar loop over the candidates.
             let lanes = Portable.leaf_candidates(&leaf, tris.len(), &ray);
             let (end, scalar) = closest(Portable, &leaf, lanes, &ray, range);
             let (got, vector) = simd.vectorize(|| closest(simd, &leaf, lanes, &ray, range));
             let bits = |f: Option<(TriangleHit, u32, u32)>| {
-                f.map(|(h, leaf, bit)| (h.t.to_bits(), h.b.map(f32::to_bits), h.normal.to_array().map(f32::to_bits), leaf, bit))
+                f.map(|(h, leaf, bit)| (h.t.to_bits(), h.b.map(f32::to_bits), leaf, bit))
             };
             prop_assert_eq!(got.to_bits(), end.to_bits());
             prop_assert_eq!(bits(vector), bits(scalar));

@@ -4,7 +4,7 @@
 //! that ray alone would test them. Every ray gets the answer of the single-ray query.
 
 use glam::Vec4;
-use raylume_geometry::{Interval, Ray, Vec3A};
+use raylume_geometry::{Interval, Ray, Vec3A, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
 use super::closest_in_leaf;
@@ -115,7 +115,9 @@ impl<'a> Rays<'a> {
         let t_min_lanes = Vec4::splat(t_min);
         let mut largest = Vec4::NEG_INFINITY;
         for g in 0..self.rays.len().div_ceil(4) {
+            // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
             let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
+            let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
             for lane in set_bits(self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends)) {
                 let i = 4 * g + lane as usize;
                 let ray = &self.rays[i];

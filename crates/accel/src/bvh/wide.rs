@@ -2,7 +2,7 @@
 //! the binary build, and the ordered traversal shared by both widths and every kind of leaf.
 
 use glam::Vec4;
-use raylume_geometry::{Aabb, Ray, Vec3A};
+use raylume_geometry::{Aabb, Ray, Vec3A, gamma};
 
 use super::build::Node;
 use crate::Tally;
@@ -425,6 +425,11 @@ impl<const W: usize> WideTree<W> {
         // Down to the first node with two children or more, no stack is needed: many rays (those that
         // miss the mesh near its silhouette) end on that path, and clearing a stack is a large part
         // of their cost.
+        // Boxes are tested, and entries kept, up to a few ulps past the closest hit so far: a box's entry
+        // distance rounds, and a primitive at the very distance of the hit (a tie the lowest index wins)
+        // must still be reached.
+        let reach = |t: f32| if ANY { t } else { t + t.abs() * (2.0 * gamma(3)) };
+        let mut end = reach(t_max);
         let mut cur = self.root;
         let (near, mask) = loop {
             if cur & LEAF != 0 {
@@ -433,7 +438,7 @@ impl<const W: usize> WideTree<W> {
             }
             let node = &self.nodes[cur as usize];
             tally.visited();
-            let (near, mask) = ray.intersect(node, t_min, t_max);
+            let (near, mask) = ray.intersect(node, t_min, end);
             if mask & mask.wrapping_sub(1) != 0 {
                 break (near, mask);
             }
@@ -467,7 +472,7 @@ impl<const W: usize> WideTree<W> {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
                 tally.visited();
-                let (near, mask) = ray.intersect(node, t_min, t_max);
+                let (near, mask) = ray.intersect(node, t_min, end);
                 if mask != 0 {
                     cur = ray.push::<ANY>(node, near, mask, &mut stack, &mut sp);
                     self.prefetch_top(ray, leaf, &stack, sp);
@@ -479,13 +484,14 @@ impl<const W: usize> WideTree<W> {
                     // An any-hit query has its answer.
                     return;
                 }
+                end = reach(t_max);
             }
             loop {
                 if sp == 0 {
                     return;
                 }
                 sp -= 1;
-                if stack.near[sp] <= t_max {
+                if stack.near[sp] <= end {
                     cur = stack.child[sp];
                     break;
                 }
