@@ -59,8 +59,11 @@ impl PrimitiveHit {
 /// direction `2^k d` alike, bit for bit, with `t` scaled by `2^-k`.
 #[inline(always)]
 fn on_canonical<R>(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interval) -> Option<R>) -> Option<(R, f32)> {
+    if !ray.is_valid() {
+        return None;
+    }
     let (ray, s) = ray.canonical()?;
-    query(&ray, t_range.scaled(1.0 / s)).map(|r| (r, s))
+    query(&ray, t_range.on_canonical(s)).map(|r| (r, s))
 }
 
 /// [`on_canonical`] for closest-hit queries.

@@ -44,29 +44,40 @@ impl Ray {
         self.origin + self.dir * t
     }
 
+    /// Whether the direction is canonical: its largest component has a magnitude in `[1, 2)`
+    /// ([`Ray::canonical`]). Routines given a canonical ray answer on it directly.
+    #[inline(always)]
+    pub fn is_canonical(&self) -> bool {
+        self.dir.abs().max_element().to_bits() >> 23 == 127
+    }
+
     /// The ray with its direction scaled by a power of two so that its largest component has a
     /// magnitude in `[1, 2)`, and the factor `s` that takes its parameters back: a hit at `t` on the
-    /// returned ray is at `t * s` on `self` (and a range `r` on `self` is `r.scaled(1.0 / s)` on the
+    /// returned ray is at `t * s` on `self` (and a range `r` on `self` is `r.on_canonical(s)` on the
     /// returned ray). Both scalings are exact, so a query that answers on the canonical ray gives the
     /// same answer, bit for bit, for every direction `2^k d`: the intersection routines and the
-    /// accelerators do so. `None` for a ray that is not [valid](Ray::is_valid).
+    /// accelerators do so. `None` for a ray that is not [valid](Ray::is_valid), except that a ray whose
+    /// direction is canonical already is returned as it is, without looking at its origin.
     ///
     /// ```
     /// use raylume_geometry::{Ray, Vec3A};
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::new(0.0, 3.0 * 2f32.powi(-30), 0.0));
     /// let (canonical, s) = ray.canonical().unwrap();
+    /// assert!(canonical.is_canonical() && !ray.is_canonical());
     /// assert_eq!(canonical.dir, Vec3A::new(0.0, 1.5, 0.0));
     /// assert_eq!(s, 2f32.powi(29));
     /// assert_eq!(canonical.at(2.0), ray.at(2.0 * s));
     /// ```
-    #[inline]
+    #[inline(always)]
     pub fn canonical(&self) -> Option<(Ray, f32)> {
-        if !self.is_valid() {
-            return None;
-        }
         let e = ((self.dir.abs().max_element().to_bits() >> 23) as i32) - 127;
+        // Already canonical (the accelerators pass their rays on so): the direction is finite and
+        // not zero, and an origin that is not finite makes every routine miss.
         if e == 0 {
             return Some((*self, 1.0));
+        }
+        if !self.is_valid() {
+            return None;
         }
         // The direction is 2^-e times its canonical one, so parameters scale by 2^-e too (`e` is in
         // -126..=127 for a valid ray: representable).
@@ -123,5 +134,12 @@ impl Interval {
     #[inline]
     pub fn scaled(self, factor: f32) -> Self {
         Self { min: self.min * factor, max: self.max * factor }
+    }
+
+    /// The interval on the canonical form of a ray whose parameters it measures, `s` being the factor
+    /// [`Ray::canonical`] returned: both ends divided by `s` (exactly, a power of two).
+    #[inline(always)]
+    pub fn on_canonical(self, s: f32) -> Self {
+        if s == 1.0 { self } else { self.scaled(1.0 / s) }
     }
 }

@@ -6,12 +6,44 @@ use crate::{Hit, Intersect, intersect_watertight};
 
 impl Intersect for Sphere {
     /// The careful quadratic of *Ray Tracing Gems* ch. 7 (the discriminant from the distance of the
-    /// centre to the ray's line, the roots from the form that avoids cancellation), in f64 on the
-    /// canonical ray ([`Ray::canonical`]): exact in `|d|`, and neither overflowing nor cancelling for
-    /// radii and distances up to 1e30 and beyond.
+    /// centre to the ray's line, the roots from the form that avoids cancellation) on the canonical
+    /// ray ([`Ray::canonical`]), so exact in `|d|`; in f64 for radii and distances beyond 1e15 (or below
+    /// 1e-15), where f32 squares would overflow or underflow.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        on_canonical(ray, t_range, |ray, range| sphere_hit(self.center, self.radius, ray, range))
+        if !ray.is_canonical() {
+            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
+        }
+        let t = match sphere_root(self.center, self.radius, ray, t_range) {
+            Root::At(t) => t,
+            Root::Miss => return None,
+            Root::Wide => return sphere_hit(self.center, self.radius, ray, t_range),
+        };
+        // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
+        let offset = ray.at(t) - self.center;
+        let len = offset.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return None;
+        }
+        let normal = offset / len;
+        let point = self.center + normal * self.radius;
+        let q = (self.center.abs() + (normal * self.radius).abs()) * gamma(5);
+        Some(Hit { t, point, normal, uv: Vec2::ZERO, error: q + curve_depth(q, self.radius) })
+    }
+
+    /// The roots only: no point, no normal.
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        if !ray.is_canonical() {
+            return rescaled(ray, Interval::new(0.0, t_max), |ray, range| self.occluded(ray, range.max).then_some(()))
+                .is_some();
+        }
+        let range = Interval::new(0.0, t_max);
+        match sphere_root(self.center, self.radius, ray, range) {
+            Root::At(_) => true,
+            Root::Miss => false,
+            Root::Wide => sphere_hit(self.center, self.radius, ray, range).is_some(),
+        }
     }
 
     fn bounds(&self) -> Aabb {
@@ -20,8 +52,72 @@ impl Intersect for Sphere {
     }
 }
 
-/// The hit of a ray (canonical) on the sphere of `center` and `radius`, within `range`.
+/// The first root of a sphere's quadratic within a range.
+enum Root {
+    /// At this ray parameter.
+    At(f32),
+    /// None in the range.
+    Miss,
+    /// Sizes beyond f32's squares: [`sphere_hit`] decides, in f64.
+    Wide,
+}
+
+/// The first hit of a (canonical) ray on a sphere within `range`, in f32 with the squares that
+/// cancel in f64.
+#[inline(always)]
+fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
+    if !(1e-15..=1e15).contains(&radius) {
+        return Root::Wide;
+    }
+    let f = ray.origin - center;
+    let a = ray.dir.length_squared();
+    let half_b = f.dot(ray.dir);
+    // |f|^2 - r^2 cancels when the origin is near the surface: form it in f64, where the squares of
+    // f32 values are exact.
+    let r2 = radius as f64 * radius as f64;
+    let c = (sq64(f) - r2) as f32;
+    let closest = f - ray.dir * (half_b / a);
+    let disc = a * (r2 - sq64(closest)) as f32;
+    if !(disc >= 0.0) {
+        return Root::Miss;
+    }
+    if disc == f32::INFINITY || c.abs() == f32::INFINITY {
+        // Distances beyond f32's squares.
+        return Root::Wide;
+    }
+    let q = -(half_b + disc.sqrt().copysign(half_b));
+    let (t0, t1) = (c / q, q / a);
+    let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+    // Hits at t <= 0 are the surface the ray starts on, never reported.
+    if t0 > 0.0 && range.contains(t0) {
+        Root::At(t0)
+    } else if t1 > 0.0 && range.contains(t1) {
+        Root::At(t1)
+    } else {
+        Root::Miss
+    }
+}
+
+/// How far below a curved surface (radius of curvature `radius`, positive) a point displaced by up to
+/// `q` per axis can be: `|q|^2 / 2r`, at most `|q|` (here the larger sum of `q`'s coordinates), on every axis, so that a ray spawned past the bound along
+/// the normal starts off the surface even where the surface turns within the error box.
 #[inline]
+fn curve_depth(q: Vec3A, radius: f32) -> Vec3A {
+    // The sum of the coordinates bounds |q| from above, without a square root.
+    Vec3A::splat((q.length_squared() * (0.5 / radius)).min(q.element_sum()))
+}
+
+/// `|v|^2` in f64 (each square exact).
+#[inline(always)]
+fn sq64(v: Vec3A) -> f64 {
+    let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
+    x * x + y * y + z * z
+}
+
+/// The hit of a ray (canonical) on the sphere of `center` and `radius`, within `range`, all in f64:
+/// for sizes beyond f32's squares.
+#[cold]
+#[inline(never)]
 fn sphere_hit(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Option<Hit> {
     let (c, o, d, r) = (v64(center), v64(ray.origin), v64(ray.dir), radius as f64);
     let f = sub(o, c);
@@ -58,7 +154,7 @@ fn sphere_hit(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Option<
     }
     let n = offset.map(|x| x / len);
     let point = Vec3A::new((c[0] + n[0] * r) as f32, (c[1] + n[1] * r) as f32, (c[2] + n[2] * r) as f32);
-    let error = rounding_error(point, radius) + (center.abs() + Vec3A::splat(radius)) * F64_SLOP;
+    let error = rounding_error(point, radius.abs()) + (center.abs() + Vec3A::splat(radius.abs())) * F64_SLOP;
     let normal = Vec3A::new(n[0] as f32, n[1] as f32, n[2] as f32);
     Some(Hit { t: t64 as f32, point, normal, uv: Vec2::ZERO, error })
 }
@@ -145,7 +241,10 @@ impl Intersect for Plane {
     /// A ray parallel to the plane (or lying in it) never hits.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        on_canonical(ray, t_range, |ray, range| plane_hit(self, ray, range))
+        if !ray.is_canonical() {
+            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
+        }
+        plane_hit(self, ray, t_range)
     }
 
     fn bounds(&self) -> Aabb {
@@ -179,7 +278,10 @@ impl Intersect for AaBox {
     /// edges and corners go to the lowest axis); the point is put exactly on that face.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        on_canonical(ray, t_range, |ray, range| box_hit(self, ray, range))
+        if !ray.is_canonical() {
+            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
+        }
+        box_hit(self, ray, t_range)
     }
 
     fn bounds(&self) -> Aabb {
@@ -231,7 +333,10 @@ impl Intersect for Cone {
     /// of the cone's axis, on the canonical ray; the point is reprojected onto the surface, so its
     /// error is the final rounding to f32.
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        on_canonical(ray, t_range, |ray, range| cone_hit(self, ray, range))
+        if !ray.is_canonical() {
+            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
+        }
+        cone_hit(self, ray, t_range)
     }
 
     fn bounds(&self) -> Aabb {
@@ -307,26 +412,47 @@ fn cone_hit(cone: &Cone, ray: &Ray, range: Interval) -> Option<Hit> {
 }
 
 /// The error bound of a point of a curved surface (radius of curvature `radius`) rounded from f64 to
-/// f32: half an ulp per coordinate, and, on every axis, how far that rounding can take the point
-/// below the surface across its curve (`|q|^2 / 2r`, at most `|q|`), so that a ray spawned past the
-/// bound along the normal starts off the surface even where the surface turns within the box.
+/// f32: half an ulp per coordinate, and the [depth](curve_depth) that rounding can reach below the
+/// surface.
 #[inline]
 fn rounding_error(point: Vec3A, radius: f32) -> Vec3A {
     let q = point.abs() * gamma(1);
-    let depth = (q.length_squared() / (2.0 * radius)).min(q.length());
-    q + Vec3A::splat(if depth.is_nan() { q.length() } else { depth })
+    q + curve_depth(q, radius)
 }
 
 /// A bound on the relative error of the few dozen f64 operations behind a hit point (each within
 /// 2^-53), for the error bound of points computed in f64 and rounded to f32.
 const F64_SLOP: f32 = 1.0 / (1u64 << 44) as f32;
 
-/// `query` on the canonical form of `ray` ([`Ray::canonical`]), its answer's `t` taken back: every
-/// routine answers alike for directions `2^k d`.
-#[inline(always)]
-fn on_canonical(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interval) -> Option<Hit>) -> Option<Hit> {
+/// `query` (a routine that takes canonical rays) on the canonical form of `ray`
+/// ([`Ray::canonical`]), its answer's `t` taken back: every routine answers alike for directions
+/// `2^k d`. Out of line: accelerators pass canonical rays, so this is the path of direct calls only.
+#[inline(never)]
+pub(crate) fn rescaled<R: Rescale>(
+    ray: &Ray,
+    t_range: Interval,
+    query: impl FnOnce(&Ray, Interval) -> Option<R>,
+) -> Option<R> {
     let (ray, s) = ray.canonical()?;
-    query(&ray, t_range.scaled(1.0 / s)).map(|h| Hit { t: h.t * s, ..h })
+    query(&ray, t_range.on_canonical(s)).map(|r| r.rescale(s))
+}
+
+/// An answer whose ray parameter scales back from a canonical ray.
+pub(crate) trait Rescale {
+    /// The answer with its parameter multiplied by `s`.
+    fn rescale(self, s: f32) -> Self;
+}
+
+impl Rescale for Hit {
+    #[inline(always)]
+    fn rescale(self, s: f32) -> Self {
+        Hit { t: self.t * s, ..self }
+    }
+}
+
+impl Rescale for () {
+    #[inline(always)]
+    fn rescale(self, _: f32) -> Self {}
 }
 
 /// [`raylume_geometry::orthonormal_basis`] in f64.

@@ -109,16 +109,21 @@ impl TriangleHit {
 /// ```
 #[inline]
 pub fn intersect_watertight(tri: &Triangle, ray: &Ray, t_range: Interval) -> Option<Hit> {
-    let (ray, s) = ray.canonical()?;
-    let sheared = ShearedRay::new(&ray)?;
-    watertight_decide(tri, &sheared, t_range.scaled(1.0 / s)).map(|h| Hit { t: h.t * s, ..h.hit(tri) })
+    if !ray.is_canonical() {
+        return crate::shapes::rescaled(ray, t_range, |ray, range| intersect_watertight(tri, ray, range));
+    }
+    let sheared = ShearedRay::new(ray)?;
+    watertight_decide(tri, &sheared, t_range).map(|h| h.hit(tri))
 }
 
 /// Whether `ray` hits `tri` within `(0, t_max)`: [`watertight_hits`] on the canonical ray.
 #[inline]
 pub(crate) fn occludes(tri: &Triangle, ray: &Ray, t_max: f32) -> bool {
-    let Some((ray, s)) = ray.canonical() else { return false };
-    ShearedRay::new(&ray).is_some_and(|sheared| watertight_hits(tri, &sheared, Interval::new(0.0, t_max / s)))
+    let range = Interval::new(0.0, t_max);
+    if !ray.is_canonical() {
+        return crate::shapes::rescaled(ray, range, |ray, range| occludes(tri, ray, range.max).then_some(())).is_some();
+    }
+    ShearedRay::new(ray).is_some_and(|sheared| watertight_hits(tri, &sheared, range))
 }
 
 /// The decision of [`intersect_watertight`] for a prepared ray: whether the ray hits `tri` with `t`
@@ -183,18 +188,17 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
         return None;
     }
     // The plane through the vertices, in f64: a degenerate triangle (collinear in f32) has none.
-    let n = normal64(tri);
-    if !(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.0) {
+    if !has_unit_normal(tri) {
         return None;
     }
     let t = if t > delta_t {
-        if REFINE { plane_distance64(tri, n, ray).map_or(t, |t| t as f32) } else { t }
+        if REFINE { decided_distance(tri, ray, t) } else { t }
     } else {
         // Too close to call in f32 (needles and tiny triangles far away have error bounds larger than
         // their distance): the distance to the vertices' plane in f64, whose bound is 2^29 times
         // smaller, decides; a ray leaving the surface (its origin offset past the f32 error box) is
         // then behind it.
-        match plane_distance64(tri, n, ray) {
+        match plane_distance64(tri, normal64(tri), ray) {
             Some(t) if t > plane_distance_error(tri, ray, t) => t as f32,
             _ => return None,
         }
@@ -203,6 +207,15 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
         return None;
     }
     Some(TriangleHit { t, b: [u * inv, v * inv, w * inv] })
+}
+
+/// The distance [`watertight_decide`] reports for a hit it decides in f32 (every edge function beyond
+/// its error bound, the f32 distance `t` beyond its own): the distance to the vertices' plane in f64,
+/// or `t` where that is not finite. Accelerators that decide such hits in vector registers take the
+/// reported distance from it, and so answer as the scalar test does.
+#[inline]
+pub fn decided_distance(tri: &Triangle, ray: &ShearedRay, t: f32) -> f32 {
+    plane_distance64(tri, normal64(tri), ray).map_or(t, |t| t as f32)
 }
 
 /// pbrt-v4's bound on the error of the distance `t` the test forms from the sheared vertices and the
@@ -218,11 +231,14 @@ fn distance_error(_ray: &ShearedRay, x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [
     3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs()
 }
 
-/// Whether the watertight test can hit `tri` at all: a triangle without a unit normal (zero area in
-/// f32, or a cross product that overflows) is never hit, so accelerators may leave it out.
+/// Whether the watertight test can hit `tri` at all: a triangle whose vertices are collinear (or
+/// not finite) has no unit normal and is never hit, so accelerators may leave it out. The normal is
+/// formed in f64, so huge and tiny triangles have one.
 #[inline]
 pub fn has_unit_normal(tri: &Triangle) -> bool {
-    unit_normal(tri).is_some()
+    let n = normal64(tri);
+    let square = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    square > 0.0 && square.is_finite()
 }
 
 /// The triangle's unit normal, formed in f64 so that neither huge nor tiny triangles over- or

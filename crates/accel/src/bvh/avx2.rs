@@ -7,7 +7,7 @@
 
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
-use raylume_intersect::ShearedRay;
+use raylume_intersect::{ShearedRay, TriangleHit};
 use std::arch::x86_64::{__m128, __m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
 
 use super::stream::{Leaves, PacketQuery};
@@ -438,14 +438,15 @@ fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
 /// watertight test: `hit`, lanes the scalar test accepts; `open`, candidates it must decide itself
 /// (an edge function within its rounding error of zero, or a distance too close to call in f32).
 /// Every other lane is one the scalar test rejects.
-/// With them, each lane's distance (rounded from f64, as the scalar test's) and the bound on its
-/// error, meaningful in the `hit` lanes.
+/// With them, each lane's distance (rounded from f64, as the scalar test's), the bound on its error
+/// and the reciprocal of its determinant (the barycentrics' scale), meaningful in the `hit` lanes.
 #[derive(Clone, Copy, Debug)]
 struct Verdict {
     hit: u32,
     open: u32,
     t: __m256,
     delta_t: __m256,
+    inv: __m256,
 }
 
 /// The [`Verdict`] of the `candidates` lanes of a leaf whose triangles all have a unit normal (the BVH
@@ -463,7 +464,7 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     let sure = avx._mm256_and_ps(avx._mm256_and_ps(certain(e.u, eu), certain(e.v, ev)), certain(e.w, ew));
     let decided = candidates & avx._mm256_movemask_ps(sure) as u32;
     if decided == 0 {
-        return Verdict { hit: 0, open: candidates, t: zero, delta_t: zero };
+        return Verdict { hit: 0, open: candidates, t: zero, delta_t: zero, inv: zero };
     }
     let sz = avx._mm256_set1_ps(ray.shear[2]);
     let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
@@ -519,26 +520,34 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     let beyond = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)) as u32;
     let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
     let hit = decided & kept & beyond & !rejected;
-    Verdict { hit, open: candidates & !hit & !rejected, t, delta_t }
+    Verdict { hit, open: candidates & !hit & !rejected, t, delta_t, inv }
 }
 
-/// [`Filter::closest_of_candidates`] with the lanes' verdict from AVX registers: the candidates are
-/// taken in turn as the scalar loop takes them, and the scalar test decides every lane the verdict
-/// does not reject (an accepted lane beyond the narrowed range by more than its error bound is one
-/// the scalar test rejects, and is skipped), so the answer is the scalar loop's, bit for bit.
+/// [`Filter::closest_of_candidates`] with the lanes' verdict, distance and barycentrics from AVX
+/// registers: the candidates are taken in turn as the scalar loop takes them, the scalar test run for
+/// the lanes the verdict leaves open, and an accepted lane's distance and barycentrics those the scalar
+/// test reports (its distance from `decided_distance`; a lane beyond the narrowed range by more than
+/// its error bound is one the scalar test rejects), so the answer is the scalar loop's, bit for bit.
 #[inline(always)]
 fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
+    let avx = simd.avx;
     let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
     let e = edges(simd, leaf, ray);
-    let Verdict { hit, open, t, delta_t } = verdict(simd, &e, test.lanes, ray, range);
+    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, &e, test.lanes, ray, range);
     if hit == 0 {
         return super::closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
     let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
+    let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
     for bit in set_bits(hit | open) {
         let i = bit as usize;
-        if hit & (1 << bit) == 0 || t[i] - delta_t[i] <= range.max {
+        if open & (1 << bit) != 0 {
             test.decide(bit, &mut range);
+        } else if t[i] - delta_t[i] <= range.max {
+            let t = raylume_intersect::decided_distance(&leaf.triangle(bit), ray, t[i]);
+            if range.contains(t) && t > 0.0 {
+                test.keep(bit, TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]] }, &mut range);
+            }
         }
     }
     range.max
@@ -615,7 +624,6 @@ impl Filter for V3 {
 mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Triangle, Vec3A};
-    use raylume_intersect::TriangleHit;
 
     use super::super::triangles::Portable;
     use super::super::triangles::tests::arb_point;

@@ -300,15 +300,21 @@ impl Candidates<'_> {
     #[inline(always)]
     fn decide(&mut self, bit: u32, range: &mut Interval) {
         if let Some(h) = raylume_intersect::watertight_decide(&self.leaf.triangle(bit), self.ray, *range) {
-            // A hit at the distance of the one so far replaces it only if its primitive comes first.
-            let wins = match *self.found {
-                Some((f, leaf, b)) if f.t == h.t => self.leaf.id(bit) < self.leaves[leaf as usize].id(b),
-                _ => true,
-            };
-            if wins {
-                *range = range.with_max(h.t);
-                *self.found = Some((h, self.first as u32, bit));
-            }
+            self.keep(bit, h, range);
+        }
+    }
+
+    /// Keeps `h`, a hit of candidate `bit` within `range`, if it beats the hit so far: a hit at the
+    /// same distance replaces it only if its primitive comes first.
+    #[inline(always)]
+    fn keep(&mut self, bit: u32, h: TriangleHit, range: &mut Interval) {
+        let wins = match *self.found {
+            Some((f, leaf, b)) if f.t == h.t => self.leaf.id(bit) < self.leaves[leaf as usize].id(b),
+            _ => true,
+        };
+        if wins {
+            *range = range.with_max(h.t);
+            *self.found = Some((h, self.first as u32, bit));
         }
     }
 }
@@ -527,6 +533,9 @@ fn same_scale(rays: &[Ray]) -> Option<([Ray; stream::PACKET], f32)> {
     let mut canonical = [Ray::new(Vec3A::ZERO, Vec3A::ZERO); stream::PACKET];
     let mut scale = None;
     for (ray, c) in rays.iter().zip(&mut canonical) {
+        if !ray.is_valid() {
+            return None;
+        }
         let (r, s) = ray.canonical()?;
         if *scale.get_or_insert(s) != s {
             return None;
@@ -673,7 +682,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                     let canonical = &canonical[..rays.len()];
                     match stream::common_signs(canonical) {
                         Some(negative) => {
-                            self.closest_packet(tris, canonical, negative, t_range.scaled(1.0 / s), hits);
+                            self.closest_packet(tris, canonical, negative, t_range.on_canonical(*s), hits);
                             for h in hits.iter_mut().flatten() {
                                 h.hit.t *= s;
                             }
@@ -694,7 +703,13 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 (Some(tris), Some((canonical, s))) if !t_max.is_nan() => {
                     let canonical = &canonical[..rays.len()];
                     match stream::common_signs(canonical) {
-                        Some(negative) => self.occluded_packet(tris, canonical, negative, t_max / s, occluded),
+                        Some(negative) => self.occluded_packet(
+                            tris,
+                            canonical,
+                            negative,
+                            Interval::new(0.0, t_max).on_canonical(*s).max,
+                            occluded,
+                        ),
                         None => occluded_ray_by_ray(self, rays, t_max, occluded),
                     }
                 }
