@@ -155,7 +155,7 @@ fn every_course_scene_renders() {
 #[test]
 fn balls_low_matches_the_course_reference() {
     let Some(shared) = shared() else { return };
-    let scene = p3f::load(&shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap().scene;
+    let scene = p3f::load(shared.join("scenes/balls_low.p3f"), &Default::default()).unwrap().scene;
     let reference = image::open(shared.join("refimages/balls_low.png")).unwrap().into_rgb8();
     let ref_values: Vec<f32> = reference.as_raw().iter().map(|&v| v as f32 / 255.0).collect();
     let error = |specular_scale| {

@@ -27,7 +27,7 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
             let mut best = None;
             for (i, p) in self.prims.iter().enumerate() {
                 tally.tested();
-                if let Some(hit) = p.intersect(ray, t_range) {
+                if let Some(hit) = p.intersect_canonical(ray, t_range) {
                     t_range = t_range.with_max(hit.t);
                     best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i as u32 });
                 }
@@ -40,7 +40,7 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| {
             self.prims.iter().any(|p| {
                 tally.tested();
-                p.occluded(ray, t_max)
+                p.occluded_canonical(ray, t_max)
             })
         })
     }

@@ -219,7 +219,7 @@ impl<P: Intersect> Grid<P> {
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
         }
-        if !(t0 <= t1) {
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
             return;
         }
         let (corner, size, inv) = (&self.corner, &self.cell_size, &self.inv_cell_size);
@@ -299,7 +299,7 @@ impl<P: Intersect> Grid<P> {
         let mut best = None;
         for &i in &self.unbounded {
             tally.tested();
-            if let Some(hit) = self.prims[i as usize].intersect(ray, t_range) {
+            if let Some(hit) = self.prims[i as usize].intersect_canonical(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i });
             }
@@ -310,7 +310,7 @@ impl<P: Intersect> Grid<P> {
             for &i in items {
                 if mailbox.first_visit(i) {
                     tally.tested();
-                    if let Some(hit) = self.prims[i as usize].intersect(ray, t_range) {
+                    if let Some(hit) = self.prims[i as usize].intersect_canonical(ray, t_range) {
                         t_range = t_range.with_max(hit.t);
                         best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i });
                     }
@@ -327,7 +327,7 @@ impl<P: Intersect> Grid<P> {
     fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         for &i in &self.unbounded {
             tally.tested();
-            if self.prims[i as usize].occluded(ray, t_max) {
+            if self.prims[i as usize].occluded_canonical(ray, t_max) {
                 return true;
             }
         }
@@ -338,7 +338,7 @@ impl<P: Intersect> Grid<P> {
             for &i in items {
                 if mailbox.first_visit(i) {
                     tally.tested();
-                    if self.prims[i as usize].occluded(ray, t_max) {
+                    if self.prims[i as usize].occluded_canonical(ray, t_max) {
                         hit = true;
                         return false;
                     }

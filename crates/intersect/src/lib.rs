@@ -63,6 +63,19 @@ pub trait Intersect {
         self.intersect(ray, Interval::new(0.0, t_max)).is_some()
     }
 
+    /// [`Intersect::intersect`] for a canonical ray ([`Ray::canonical`]), as accelerators pass them:
+    /// the same answer, without looking at the direction's scale.
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
+        self.intersect(ray, t_range)
+    }
+
+    /// [`Intersect::occluded`] for a canonical ray.
+    #[inline]
+    fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
+        self.occluded(ray, t_max)
+    }
+
     /// The bounds of the shape (infinite for unbounded shapes such as planes).
     fn bounds(&self) -> Aabb;
 

@@ -44,6 +44,16 @@ impl Intersect for Primitive {
         dispatch!(self, s => s.occluded(ray, t_max))
     }
 
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
+        dispatch!(self, s => s.intersect_canonical(ray, t_range))
+    }
+
+    #[inline]
+    fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
+        dispatch!(self, s => s.occluded_canonical(ray, t_max))
+    }
+
     fn bounds(&self) -> Aabb {
         dispatch!(self, s => Intersect::bounds(s))
     }

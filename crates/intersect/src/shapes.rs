@@ -4,6 +4,28 @@ use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sp
 
 use crate::{Hit, Intersect, intersect_watertight};
 
+/// The body of `intersect` or `occluded` of a shape whose `*_canonical` routine takes canonical rays:
+/// that routine directly for a canonical ray, else on the ray rescaled (out of line).
+macro_rules! on_canonical_ray {
+    ($self:ident, intersect, $ray:ident, $t_range:ident) => {
+        if $ray.is_canonical() {
+            $self.intersect_canonical($ray, $t_range)
+        } else {
+            rescaled($ray, $t_range, |ray, range| $self.intersect_canonical(ray, range))
+        }
+    };
+    ($self:ident, occluded, $ray:ident, $t_max:ident) => {
+        if $ray.is_canonical() {
+            $self.occluded_canonical($ray, $t_max)
+        } else {
+            rescaled($ray, Interval::new(0.0, $t_max), |ray, range| {
+                $self.occluded_canonical(ray, range.max).then_some(())
+            })
+            .is_some()
+        }
+    };
+}
+
 impl Intersect for Sphere {
     /// The careful quadratic of *Ray Tracing Gems* ch. 7 (the discriminant from the distance of the
     /// centre to the ray's line, the roots from the form that avoids cancellation) on the canonical
@@ -11,9 +33,11 @@ impl Intersect for Sphere {
     /// 1e-15), where f32 squares would overflow or underflow.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        if !ray.is_canonical() {
-            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
-        }
+        on_canonical_ray!(self, intersect, ray, t_range)
+    }
+
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         let t = match sphere_root(self.center, self.radius, ray, t_range) {
             Root::At(t) => t,
             Root::Miss => return None,
@@ -34,10 +58,11 @@ impl Intersect for Sphere {
     /// The roots only: no point, no normal.
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        if !ray.is_canonical() {
-            return rescaled(ray, Interval::new(0.0, t_max), |ray, range| self.occluded(ray, range.max).then_some(()))
-                .is_some();
-        }
+        on_canonical_ray!(self, occluded, ray, t_max)
+    }
+
+    #[inline]
+    fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
         let range = Interval::new(0.0, t_max);
         match sphere_root(self.center, self.radius, ray, range) {
             Root::At(_) => true,
@@ -78,7 +103,7 @@ fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
     let c = (sq64(f) - r2) as f32;
     let closest = f - ray.dir * (half_b / a);
     let disc = a * (r2 - sq64(closest)) as f32;
-    if !(disc >= 0.0) {
+    if disc.is_nan() || disc < 0.0 {
         return Root::Miss;
     }
     if disc == f32::INFINITY || c.abs() == f32::INFINITY {
@@ -165,6 +190,21 @@ impl Intersect for MovingSphere {
         self.at(ray.time).intersect(ray, t_range)
     }
 
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
+        self.at(ray.time).intersect_canonical(ray, t_range)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        self.at(ray.time).occluded(ray, t_max)
+    }
+
+    #[inline]
+    fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
+        self.at(ray.time).occluded_canonical(ray, t_max)
+    }
+
     fn bounds(&self) -> Aabb {
         self.at(self.time0).bounds()
     }
@@ -191,6 +231,18 @@ impl Intersect for Triangle {
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         crate::watertight::occludes(self, ray, t_max)
+    }
+
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
+        let sheared = crate::ShearedRay::new(ray)?;
+        crate::watertight_decide(self, &sheared, t_range).map(|h| h.hit(self))
+    }
+
+    #[inline]
+    fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
+        crate::ShearedRay::new(ray)
+            .is_some_and(|sheared| crate::watertight_hits(self, &sheared, Interval::new(0.0, t_max)))
     }
 
     #[inline]
@@ -241,10 +293,23 @@ impl Intersect for Plane {
     /// A ray parallel to the plane (or lying in it) never hits.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        if !ray.is_canonical() {
-            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
-        }
+        on_canonical_ray!(self, intersect, ray, t_range)
+    }
+
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         plane_hit(self, ray, t_range)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        on_canonical_ray!(self, occluded, ray, t_max)
+    }
+
+    /// The distance only: no point.
+    #[inline]
+    fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
+        plane_distance(self, ray, Interval::new(0.0, t_max)).is_some()
     }
 
     fn bounds(&self) -> Aabb {
@@ -252,20 +317,23 @@ impl Intersect for Plane {
     }
 }
 
-/// [`Plane`]'s intersection on a canonical ray.
-#[inline]
-fn plane_hit(plane: &Plane, ray: &Ray, t_range: Interval) -> Option<Hit> {
+/// The distance along a canonical ray to a plane, if it lies in `t_range` and beyond 0.
+#[inline(always)]
+fn plane_distance(plane: &Plane, ray: &Ray, t_range: Interval) -> Option<f32> {
     // In f64: near-parallel rays make n.d cancel, and f32 would lose t there.
-    let (n, d) = (plane.normal.to_array().map(f64::from), ray.dir.to_array().map(f64::from));
-    let denom = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    let (n, d) = (v64(plane.normal), v64(ray.dir));
+    let denom = dot(n, d);
     if denom == 0.0 {
         return None;
     }
-    let offset = [0, 1, 2].map(|k| plane.point[k] as f64 - ray.origin[k] as f64);
-    let t = ((n[0] * offset[0] + n[1] * offset[1] + n[2] * offset[2]) / denom) as f32;
-    if !t_range.contains(t) || t <= 0.0 {
-        return None;
-    }
+    let t = (dot(n, sub(v64(plane.point), v64(ray.origin))) / denom) as f32;
+    (t_range.contains(t) && t > 0.0).then_some(t)
+}
+
+/// [`Plane`]'s intersection on a canonical ray.
+#[inline]
+fn plane_hit(plane: &Plane, ray: &Ray, t_range: Interval) -> Option<Hit> {
+    let t = plane_distance(plane, ray, t_range)?;
     let point = ray.at(t);
     let error = (ray.origin.abs() + plane.point.abs() + (ray.dir * t).abs()) * gamma(7);
     Some(Hit { t, point, normal: plane.normal, uv: Vec2::ZERO, error })
@@ -278,9 +346,11 @@ impl Intersect for AaBox {
     /// edges and corners go to the lowest axis); the point is put exactly on that face.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        if !ray.is_canonical() {
-            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
-        }
+        on_canonical_ray!(self, intersect, ray, t_range)
+    }
+
+    #[inline]
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         box_hit(self, ray, t_range)
     }
 
@@ -333,9 +403,10 @@ impl Intersect for Cone {
     /// of the cone's axis, on the canonical ray; the point is reprojected onto the surface, so its
     /// error is the final rounding to f32.
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        if !ray.is_canonical() {
-            return rescaled(ray, t_range, |ray, range| self.intersect(ray, range));
-        }
+        on_canonical_ray!(self, intersect, ray, t_range)
+    }
+
+    fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         cone_hit(self, ray, t_range)
     }
 

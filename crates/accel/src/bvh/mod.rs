@@ -485,7 +485,7 @@ impl<P: Intersect> Bvh<P> {
         let mut best = None;
         for (p, id) in &self.unbounded {
             tally.tested();
-            if let Some(hit) = p.intersect(ray, t_range) {
+            if let Some(hit) = p.intersect_canonical(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
             }
@@ -501,7 +501,7 @@ impl<P: Intersect> Bvh<P> {
                     let mut range = t_range.with_max(t_max);
                     for i in first..first + count {
                         tally.tested();
-                        if let Some(hit) = prims[i].intersect(ray, range) {
+                        if let Some(hit) = prims[i].intersect_canonical(ray, range) {
                             range = range.with_max(hit.t);
                             best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
                         }
@@ -521,7 +521,7 @@ impl<P: Intersect> Bvh<P> {
             let (first, count) = leaf_range(leaf);
             prims[first..first + count].iter().any(|p| {
                 tally.tested();
-                p.occluded(ray, t_max)
+                p.occluded_canonical(ray, t_max)
             })
         })
     }
@@ -581,7 +581,7 @@ impl<P: Intersect> Bvh<P> {
         // Planes first, as the single-ray query does; rays they occlude leave the walk.
         let mut ends = [t_max; stream::PACKET];
         for ((ray, o), end) in rays.iter().zip(occluded.iter_mut()).zip(&mut ends) {
-            *o = self.unbounded.iter().any(|(p, _)| p.occluded(ray, t_max));
+            *o = self.unbounded.iter().any(|(p, _)| p.occluded_canonical(ray, t_max));
             if *o {
                 *end = f32::NEG_INFINITY;
             }
@@ -637,7 +637,7 @@ impl<P: Intersect> Bvh<P> {
     fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         if self.unbounded.iter().any(|(p, _)| {
             tally.tested();
-            p.occluded(ray, t_max)
+            p.occluded_canonical(ray, t_max)
         }) {
             return true;
         }
