@@ -182,24 +182,25 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     // t in f64 from the exact products: the same t whatever the order of the vertices.
     let t = ((u as f64 * az as f64 + v as f64 * bz as f64 + w as f64 * cz as f64) / (u as f64 + v as f64 + w as f64))
         as f32;
-    let delta_t = distance_error(ray, [ax, bx, cx], [ay, by, cy], [az, bz, cz], [u, v, w], inv);
+    let delta_t = distance_error([ax, bx, cx], [ay, by, cy], [az, bz, cz], [u, v, w], inv);
     // Out of the range even with the error of t (a NaN bound rejects nothing here).
     if t - delta_t > t_range.max || t + delta_t < t_range.min {
         return None;
     }
     // The plane through the vertices, in f64: a degenerate triangle (collinear in f32) has none.
-    if !has_unit_normal(tri) {
+    let n = normal64(tri);
+    if !is_plane_normal(n) {
         return None;
     }
     let t = if t > delta_t {
-        if REFINE { decided_distance(tri, ray, t) } else { t }
+        if REFINE { plane_distance64(tri, n, ray).map_or(t, |t| t as f32) } else { t }
     } else {
         // Too close to call in f32 (needles and tiny triangles far away have error bounds larger than
         // their distance): the distance to the vertices' plane in f64, whose bound is 2^29 times
         // smaller, decides; a ray leaving the surface (its origin offset past the f32 error box) is
         // then behind it.
-        match plane_distance64(tri, normal64(tri), ray) {
-            Some(t) if t > plane_distance_error(tri, ray, t) => t as f32,
+        match plane_distance64(tri, n, ray) {
+            Some(t) if t > plane_distance_error(tri, n, ray, t) => t as f32,
             _ => return None,
         }
     };
@@ -221,7 +222,7 @@ pub fn decided_distance(tri: &Triangle, ray: &ShearedRay, t: f32) -> f32 {
 /// pbrt-v4's bound on the error of the distance `t` the test forms from the sheared vertices and the
 /// edge functions: a hit closer than it may be the surface the ray left.
 #[inline(always)]
-fn distance_error(_ray: &ShearedRay, x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [f32; 3], inv: f32) -> f32 {
+fn distance_error(x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [f32; 3], inv: f32) -> f32 {
     let max3 = |v: [f32; 3]| v[0].abs().max(v[1].abs()).max(v[2].abs());
     let (max_zt, max_xt, max_yt, max_e) = (max3(z), max3(x), max3(y), max3(e));
     let delta_z = gamma(3) * max_zt;
@@ -236,7 +237,12 @@ fn distance_error(_ray: &ShearedRay, x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [
 /// formed in f64, so huge and tiny triangles have one.
 #[inline]
 pub fn has_unit_normal(tri: &Triangle) -> bool {
-    let n = normal64(tri);
+    is_plane_normal(normal64(tri))
+}
+
+/// Whether a [`normal64`] is a plane's: not zero, and finite.
+#[inline(always)]
+fn is_plane_normal(n: [f64; 3]) -> bool {
     let square = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
     square > 0.0 && square.is_finite()
 }
@@ -297,9 +303,8 @@ fn plane_offsets(tri: &Triangle, ray: &ShearedRay) -> ([f64; 3], [f64; 3]) {
 /// products carries a few f64 roundings, and a relative 2^-48 of the sums of magnitudes (those of the
 /// normal's products included) bounds them all.
 #[cold]
-fn plane_distance_error(tri: &Triangle, ray: &ShearedRay, t: f64) -> f64 {
+fn plane_distance_error(tri: &Triangle, n: [f64; 3], ray: &ShearedRay, t: f64) -> f64 {
     let (q, d) = plane_offsets(tri, ray);
-    let n = normal64(tri);
     let nabs = normal64_magnitude(tri);
     let mag = |v: [f64; 3]| nabs[0] * v[0].abs() + nabs[1] * v[1].abs() + nabs[2] * v[2].abs();
     let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
