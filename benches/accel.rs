@@ -1,7 +1,7 @@
 //! Accelerators: build time and closest-hit throughput on the bunny and on the sphereflake at three
 //! sizes, with coherent camera rays and incoherent random rays (fixed seed).
 //!
-//! `cargo bench --bench accel` (single-threaded; see docs/PERFORMANCE.md).
+//! `cargo bench --bench accel` (single-threaded; see docs/PERFORMANCE.md#binned-sah-build).
 
 use std::path::Path;
 

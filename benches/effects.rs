@@ -1,7 +1,7 @@
 //! What each distribution effect costs, and that a scene using none of them pays nothing for them.
 //!
 //! `cargo bench --bench effects` — single-threaded renders of small images, so the figures are
-//! comparable between runs; see docs/PERFORMANCE.md.
+//! comparable between runs; see docs/PERFORMANCE.md#one-render-loop-per-set-of-effects.
 
 use std::path::Path;
 

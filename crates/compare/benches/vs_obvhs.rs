@@ -1,7 +1,8 @@
 //! raylume's BVH against obvhs 0.4's CWBVH (medium build) on the same triangles and the same rays, in
 //! one criterion run: build time, closest-hit and occlusion throughput for primary and incoherent rays
 //! on the shared bunny meshes, single-threaded. After the measurements it prints the table of medians
-//! and ratios that docs/PERFORMANCE.md carries, and the memory and agreement figures.
+//! and ratios that docs/PERFORMANCE.md#against-obvhs-and-embree carries, and the memory and agreement
+//! figures.
 //!
 //! On a shared machine the load moves between one engine's benchmark and the other's, which the
 //! ratio of two criterion medians takes in. So the bench also times the single-ray queries in
@@ -12,8 +13,8 @@
 //! it derives from a ray inside the timed loop, as a caller of its single-ray query does: raylume its
 //! reciprocals and watertight frame in the query, Embree its `RTCRayHit` and what `rtcIntersect1`
 //! derives, obvhs its `Ray`, whose constructor computes the reciprocal directions. The paired table
-//! also times obvhs on its `Ray`s made before the timer starts, the bench's earlier protocol
-//! (docs/PERFORMANCE.md), so that figures taken before and after the change stay comparable.
+//! also times obvhs on its `Ray`s made before the timer starts, which shows what that set-up costs it
+//! (docs/PERFORMANCE.md#how-the-comparison-is-timed).
 //!
 //! `cargo bench -p raylume-compare` (all meshes; a criterion filter such as `-- bunny/` picks some).
 //! `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets for a quick look;
