@@ -56,14 +56,30 @@ impl PrimitiveHit {
 }
 
 /// A query on the canonical form of `ray` ([`Ray::canonical`]): the accelerators answer every
-/// direction `2^k d` alike, bit for bit, with `t` scaled by `2^-k`.
+/// direction `2^k d` alike, bit for bit, with `t` scaled by `2^-k`. Unit directions are canonical
+/// already: they go to the query as they are.
 #[inline(always)]
 fn on_canonical<R>(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interval) -> Option<R>) -> Option<(R, f32)> {
-    if !ray.is_valid() {
-        return None;
-    }
-    let (ray, s) = ray.canonical()?;
-    query(&ray, t_range.on_canonical(s)).map(|r| (r, s))
+    let scaled;
+    let (ray, t_range, s) = if ray.is_canonical() {
+        // The direction is finite and normal: the rest of `Ray::is_valid`.
+        if !(ray.origin.is_finite() && !ray.time.is_nan()) {
+            return None;
+        }
+        (ray, t_range, 1.0)
+    } else {
+        let s;
+        (scaled, s) = rescale(ray)?;
+        (&scaled, t_range.on_canonical(s), s)
+    };
+    query(ray, t_range).map(|r| (r, s))
+}
+
+/// [`Ray::canonical`] out of line: the path of rays that are not canonical as they are made.
+#[cold]
+#[inline(never)]
+fn rescale(ray: &Ray) -> Option<(Ray, f32)> {
+    ray.canonical()
 }
 
 /// [`on_canonical`] for closest-hit queries.
@@ -73,7 +89,10 @@ fn closest_on_canonical(
     t_range: Interval,
     query: impl FnOnce(&Ray, Interval) -> Option<PrimitiveHit>,
 ) -> Option<PrimitiveHit> {
-    on_canonical(ray, t_range, query).map(|(h, s)| PrimitiveHit { hit: Hit { t: h.hit.t * s, ..h.hit }, ..h })
+    on_canonical(ray, t_range, query).map(|(mut h, s)| {
+        h.hit.t *= s;
+        h
+    })
 }
 
 /// [`on_canonical`] for any-hit queries within `(0, t_max)`.

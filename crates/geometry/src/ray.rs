@@ -27,14 +27,16 @@ impl Ray {
         Self { origin, dir, time }
     }
 
-    /// Whether the ray can be traced: finite origin and direction, and a direction whose largest
-    /// component is a normal number (at least `f32::MIN_POSITIVE`, about 1.2e-38, in magnitude).
-    /// Accelerators return no hit for any other ray, after constant work.
+    /// Whether the ray can be traced: a finite origin, a time that is a number, and a direction
+    /// whose largest component is a normal number below `2^127` in magnitude (from about 1.2e-38 to
+    /// 1.7e38), so that [`Ray::canonical`]'s factor is representable. Accelerators return no hit for
+    /// any other ray, after constant work.
     #[inline]
     pub fn is_valid(&self) -> bool {
+        let largest = self.dir.abs().max_element();
         self.origin.is_finite()
             && self.dir.is_finite()
-            && self.dir.abs().max_element() >= f32::MIN_POSITIVE
+            && (f32::MIN_POSITIVE..MAX_DIRECTION).contains(&largest)
             && !self.time.is_nan()
     }
 
@@ -44,47 +46,55 @@ impl Ray {
         self.origin + self.dir * t
     }
 
-    /// Whether the direction is canonical: its largest component has a magnitude in `[1, 2)`
-    /// ([`Ray::canonical`]). Routines given a canonical ray answer on it directly.
+    /// Whether the direction is canonical: its largest component has a magnitude in `[0.5, 1)`
+    /// ([`Ray::canonical`]), as almost every unit direction's has. Routines given a canonical ray
+    /// answer on it directly.
     #[inline(always)]
     pub fn is_canonical(&self) -> bool {
-        self.dir.abs().max_element().to_bits() >> 23 == 127
+        self.dir.abs().max_element().to_bits() >> 23 == CANONICAL_EXPONENT
     }
 
     /// The ray with its direction scaled by a power of two so that its largest component has a
-    /// magnitude in `[1, 2)`, and the factor `s` that takes its parameters back: a hit at `t` on the
+    /// magnitude in `[0.5, 1)`, and the factor `s` that takes its parameters back: a hit at `t` on the
     /// returned ray is at `t * s` on `self` (and a range `r` on `self` is `r.on_canonical(s)` on the
     /// returned ray). Both scalings are exact, so a query that answers on the canonical ray gives the
     /// same answer, bit for bit, for every direction `2^k d`: the intersection routines and the
-    /// accelerators do so. `None` for a ray that is not [valid](Ray::is_valid), except that a ray whose
-    /// direction is canonical already is returned as it is, without looking at its origin.
+    /// accelerators do so. `None` for a ray that is not [valid](Ray::is_valid).
+    ///
+    /// The range `[0.5, 1)` holds the largest component of every unit vector but those along an axis,
+    /// so the rays of cameras and of the integrator are canonical as they are made.
     ///
     /// ```
     /// use raylume_geometry::{Ray, Vec3A};
     /// let ray = Ray::new(Vec3A::ZERO, Vec3A::new(0.0, 3.0 * 2f32.powi(-30), 0.0));
     /// let (canonical, s) = ray.canonical().unwrap();
     /// assert!(canonical.is_canonical() && !ray.is_canonical());
-    /// assert_eq!(canonical.dir, Vec3A::new(0.0, 1.5, 0.0));
-    /// assert_eq!(s, 2f32.powi(29));
+    /// assert_eq!(canonical.dir, Vec3A::new(0.0, 0.75, 0.0));
+    /// assert_eq!(s, 2f32.powi(28));
     /// assert_eq!(canonical.at(2.0), ray.at(2.0 * s));
+    /// assert!(Ray::new(Vec3A::ZERO, Vec3A::new(0.6, 0.8, 0.0)).is_canonical());
     /// ```
     #[inline(always)]
     pub fn canonical(&self) -> Option<(Ray, f32)> {
-        let e = ((self.dir.abs().max_element().to_bits() >> 23) as i32) - 127;
-        // Already canonical (the accelerators pass their rays on so): the direction is finite and
-        // not zero, and an origin that is not finite makes every routine miss.
-        if e == 0 {
-            return Some((*self, 1.0));
-        }
         if !self.is_valid() {
             return None;
         }
-        // The direction is 2^-e times its canonical one, so parameters scale by 2^-e too (`e` is in
-        // -126..=127 for a valid ray: representable).
+        let e = ((self.dir.abs().max_element().to_bits() >> 23) as i32) - CANONICAL_EXPONENT as i32;
+        if e == 0 {
+            return Some((*self, 1.0));
+        }
+        // The direction is 2^e times its canonical one, so the canonical ray's parameters are 2^e
+        // times this ray's (`e` is in -125..=127 for a valid ray: 2^-e is representable).
         let factor = pow2(-e);
         Some((Ray { origin: self.origin, dir: self.dir * factor, time: self.time }, factor))
     }
 }
+
+/// The biased exponent of the largest component of a canonical direction: magnitudes in `[0.5, 1)`.
+const CANONICAL_EXPONENT: u32 = 126;
+
+/// `2^127`: a valid direction's largest component is below it.
+const MAX_DIRECTION: f32 = f32::from_bits(254 << 23);
 
 /// `2^k` for `k` in `-127..=127` (`2^-127` is subnormal, and exact).
 #[inline]

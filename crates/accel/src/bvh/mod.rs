@@ -533,9 +533,6 @@ fn same_scale(rays: &[Ray]) -> Option<([Ray; stream::PACKET], f32)> {
     let mut canonical = [Ray::new(Vec3A::ZERO, Vec3A::ZERO); stream::PACKET];
     let mut scale = None;
     for (ray, c) in rays.iter().zip(&mut canonical) {
-        if !ray.is_valid() {
-            return None;
-        }
         let (r, s) = ray.canonical()?;
         if *scale.get_or_insert(s) != s {
             return None;
