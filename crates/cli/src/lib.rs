@@ -364,8 +364,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let options = p3f::LoadOptions { strict: args.strict, env_dirs: args.env_dir.clone(), ..Default::default() };
     let (scene, warnings, summary) = match (&args.scene, &args.mesh) {
         (_, Some(mesh)) => {
-            let mesh = raylume_scene::obj::load(mesh).map_err(bad_input)?;
-            (procedural::mesh_view(mesh, 512, 512), Vec::new(), None)
+            let shape = raylume_scene::obj::load(mesh).map_err(bad_input)?;
+            let warnings = never_hit_warning(&shape, mesh).into_iter().collect();
+            (procedural::mesh_view(shape, 512, 512), warnings, None)
         }
         (scene, None) => {
             let loaded = match scene {
@@ -489,10 +490,23 @@ fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The warning for a mesh read from `path` with triangles that are never hit ([`raylume_scene::Shape::never_hit`]).
+fn never_hit_warning(mesh: &raylume_scene::Shape, path: &std::path::Path) -> Option<raylume_scene::Warning> {
+    mesh.never_hit().map(|message| raylume_scene::Warning {
+        file: path.display().to_string(),
+        line: 0,
+        column: 0,
+        message,
+    })
+}
+
 fn bench_command(args: BenchCli) -> Result<(), Failure> {
     bench_limits(&args)?;
     let scene = if let Some(path) = &args.mesh {
         let mesh = raylume_scene::obj::load(path).map_err(bad_input)?;
+        if let Some(warning) = never_hit_warning(&mesh, path) {
+            eprintln!("{warning}");
+        }
         procedural::mesh_view(mesh, 1024, 1024)
     } else if let Some(g) = &args.procedural {
         let size: u32 = g[1].parse().map_err(|_| bad_input(format!("--gen {} {}: expected a size", g[0], g[1])))?;

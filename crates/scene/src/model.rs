@@ -151,6 +151,57 @@ pub enum Shape {
     },
 }
 
+impl Shape {
+    /// Why part or all of the shape can never be hit, if so: triangles (of polygons, patches and
+    /// meshes) whose vertices are collinear once in f32 have no plane, and the intersection routines
+    /// and accelerators leave them out. Loaders report it as a warning, naming the entity.
+    ///
+    /// ```
+    /// use raylume_scene::Shape;
+    /// use raylume_geometry::Vec3A;
+    /// let sliver = Shape::Polygon(vec![Vec3A::ZERO, Vec3A::X, Vec3A::new(2.0, 0.0, 0.0)]);
+    /// assert!(sliver.never_hit().unwrap().contains("never hit"));
+    /// assert_eq!(Shape::Polygon(vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y]).never_hit(), None);
+    /// ```
+    pub fn never_hit(&self) -> Option<String> {
+        let flat = |tris: &mut dyn Iterator<Item = [Vec3A; 3]>| {
+            let (mut total, mut flat) = (0usize, 0usize);
+            for [a, b, c] in tris {
+                total += 1;
+                flat += usize::from(!raylume_intersect::has_unit_normal(&raylume_geometry::Triangle::new(a, b, c)));
+            }
+            (flat, total)
+        };
+        let (what, (flat, total)) = match self {
+            Shape::Polygon(v) => {
+                ("polygon", flat(&mut crate::triangulate(v).into_iter().map(|t| t.map(|i| v[i as usize]))))
+            }
+            Shape::Patch(v) => {
+                let points: Vec<Vec3A> = v.iter().map(|p| p.0).collect();
+                ("patch", flat(&mut crate::triangulate(&points).into_iter().map(|t| t.map(|i| points[i as usize]))))
+            }
+            Shape::Mesh { vertices, triangles } => (
+                "mesh",
+                flat(&mut triangles.iter().filter_map(|t| {
+                    let [a, b, c] = t.map(|i| vertices.get(i as usize).copied());
+                    Some([a?, b?, c?])
+                })),
+            ),
+            _ => return None,
+        };
+        match (flat, total) {
+            (0, _) => None,
+            (f, t) if f == t => Some(format!("{what}: its vertices are collinear in f32 (no area): it is never hit")),
+            (1, t) => {
+                Some(format!("{what}: 1 of its {t} triangles has collinear vertices in f32 (no area): it is never hit"))
+            }
+            (f, t) => Some(format!(
+                "{what}: {f} of its {t} triangles have collinear vertices in f32 (no area): they are never hit"
+            )),
+        }
+    }
+}
+
 impl Scene {
     /// The shutter interval: the scene's `shutter`, else the union of the moving spheres' time
     /// spans, or `[0, 0]` without motion.

@@ -176,6 +176,26 @@ fn unknown_tags_warn_and_strict_makes_them_errors() {
     assert!(e.starts_with("w.p3f:9:1: unknown tag 'zz'"), "{e}");
 }
 
+/// Triangles whose vertices are collinear once in f32 are never hit (the accelerators leave them
+/// out): the loader says so, naming the entity, and `--strict` refuses the file.
+#[test]
+fn triangles_that_are_never_hit_are_reported() {
+    let text = format!(
+        "{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\np 3\n0 0 0\n1 0 0\n2 0 0\n\
+         p 3\n0 0 0\n1 0 0\n0 1 0\n\
+         p 3\n0 0 0\n1e-30 0 0\n0 1e-30 0\n\
+         mesh 4 2\n0 0 0\n1 0 0\n0 1 0\n3 0 0\n1 2 3\n1 2 4\n"
+    );
+    let loaded = parse(&text, "n.p3f", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = loaded.warnings.iter().map(ToString::to_string).collect();
+    assert_eq!(shown.len(), 2, "{shown:?}");
+    assert!(shown[0].starts_with("n.p3f:9:1: warning: polygon: its vertices are collinear"), "{}", shown[0]);
+    assert!(shown[1].starts_with("n.p3f:21:1: warning: mesh: 1 of its 2 triangles"), "{}", shown[1]);
+    assert_eq!(loaded.scene.objects.len(), 4, "the shapes are kept");
+    let e = parse(&text, "n.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err().to_string();
+    assert!(e.starts_with("n.p3f:9:1: polygon: its vertices are collinear"), "{e}");
+}
+
 #[test]
 fn comments_anywhere() {
     let s = ok(&format!(

@@ -191,6 +191,9 @@ impl<'a, 'f> Parser<'a, 'f> {
             match self.entity(&tag, &mut parts)? {
                 Entity::Nothing => {}
                 Entity::Object(shape) => {
+                    if let Some(message) = shape.never_hit() {
+                        self.warn(&tag, message)?;
+                    }
                     let material = parts.materials.len() as u32 - 1;
                     parts.objects.push(Object { material, shape });
                 }
