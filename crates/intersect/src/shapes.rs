@@ -36,7 +36,7 @@ impl Intersect for Sphere {
         on_canonical_ray!(self, intersect, ray, t_range)
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
         let t = match sphere_root(self.center, self.radius, ray, t_range) {
             Root::At(t) => t,
@@ -61,7 +61,7 @@ impl Intersect for Sphere {
         on_canonical_ray!(self, occluded, ray, t_max)
     }
 
-    #[inline]
+    #[inline(always)]
     fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
         let range = Interval::new(0.0, t_max);
         match sphere_root(self.center, self.radius, ray, range) {
