@@ -18,7 +18,7 @@ mod shapes;
 pub use aabb::Aabb;
 pub use glam::{Vec2, Vec3, Vec3A};
 pub use ray::{Interval, Ray};
-pub use shapes::{AaBox, Cone, MovingSphere, Plane, Sphere, Triangle};
+pub use shapes::{AaBox, Cone, MovingSphere, Plane, Sphere, Triangle, is_plane_normal};
 
 /// Builds an orthonormal basis `(s, t)` such that `(s, t, n)` is right-handed, for a unit vector `n`.
 ///

@@ -71,6 +71,38 @@ impl Triangle {
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points(self.p)
     }
+
+    /// The geometric normal `(p1 - p0) x (p2 - p0)` formed in f64, where the differences of f32
+    /// vertices are exact and the products neither overflow nor underflow for any f32 triangle.
+    #[inline(always)]
+    pub fn normal64(&self) -> [f64; 3] {
+        let p = self.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
+        let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+        let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+        [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    }
+
+    /// Whether the triangle spans a plane: its [`Triangle::normal64`] is neither zero nor infinite
+    /// (nor NaN). A triangle whose vertices are collinear in f32 has no plane, and ray tests never
+    /// hit it; huge and tiny triangles (legs from 2^-60 to 2^60) have one.
+    ///
+    /// ```
+    /// use raylume_geometry::{Triangle, Vec3A};
+    /// assert!(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y).has_plane());
+    /// assert!(Triangle::new(Vec3A::ZERO, Vec3A::X * 1e-30, Vec3A::Y * 1e-30).has_plane());
+    /// assert!(!Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0).has_plane());
+    /// ```
+    #[inline(always)]
+    pub fn has_plane(&self) -> bool {
+        is_plane_normal(self.normal64())
+    }
+}
+
+/// Whether an f64 normal is a plane's: not zero, and finite.
+#[inline(always)]
+pub fn is_plane_normal(n: [f64; 3]) -> bool {
+    let square = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    square > 0.0 && square.is_finite()
 }
 
 /// An infinite plane `{x : normal . (x - point) = 0}`.

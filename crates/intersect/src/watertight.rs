@@ -2,7 +2,7 @@
 //! prepares the ray once ([`ShearedRay`]), decides each candidate triangle ([`watertight_decide`]) and
 //! builds the full [`Hit`] of the closest one only ([`TriangleHit::hit`]).
 
-use raylume_geometry::{Interval, Ray, Triangle, Vec2, Vec3A, gamma};
+use raylume_geometry::{Interval, Ray, Triangle, Vec2, Vec3A, gamma, is_plane_normal};
 
 use crate::Hit;
 
@@ -237,14 +237,7 @@ fn distance_error(x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [f32; 3], inv: f32) 
 /// formed in f64, so huge and tiny triangles have one.
 #[inline]
 pub fn has_unit_normal(tri: &Triangle) -> bool {
-    is_plane_normal(normal64(tri))
-}
-
-/// Whether a [`normal64`] is a plane's: not zero, and finite.
-#[inline(always)]
-fn is_plane_normal(n: [f64; 3]) -> bool {
-    let square = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-    square > 0.0 && square.is_finite()
+    tri.has_plane()
 }
 
 /// The triangle's unit normal, formed in f64 so that neither huge nor tiny triangles over- or
@@ -269,13 +262,10 @@ fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
     [e1[1] * e2[2] + e1[2] * e2[1], e1[2] * e2[0] + e1[0] * e2[2], e1[0] * e2[1] + e1[1] * e2[0]]
 }
 
-/// `(p1 - p0) x (p2 - p0)` in f64.
+/// `(p1 - p0) x (p2 - p0)` in f64 ([`Triangle::normal64`]).
 #[inline(always)]
 fn normal64(tri: &Triangle) -> [f64; 3] {
-    let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-    [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    tri.normal64()
 }
 
 /// The ray parameter where the ray meets the plane (normal `n`, [`normal64`]) of the triangle's

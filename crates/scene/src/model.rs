@@ -168,7 +168,7 @@ impl Shape {
             let (mut total, mut flat) = (0usize, 0usize);
             for [a, b, c] in tris {
                 total += 1;
-                flat += usize::from(!raylume_intersect::has_unit_normal(&raylume_geometry::Triangle::new(a, b, c)));
+                flat += usize::from(!raylume_geometry::Triangle::new(a, b, c).has_plane());
             }
             (flat, total)
         };
