@@ -25,6 +25,7 @@ pub use raylume_integrator as integrator;
 pub use raylume_integrator::metrics;
 pub use raylume_intersect as intersect;
 pub use raylume_material as material;
+pub use raylume_render as render;
 pub use raylume_scene as scene;
 
 /// What an embedder needs: scenes, their loader and builder, rendering and its output.
@@ -35,5 +36,6 @@ pub mod prelude {
     pub use raylume_integrator::{Film, RayStats, RenderSettings, render};
     pub use raylume_intersect::{Hit, Intersect, Primitive};
     pub use raylume_material::{FresnelMode, Material, Phong};
-    pub use raylume_scene::{RenderOptions, RenderOutput, Scene, SceneBuilder, SceneError, p3f};
+    pub use raylume_render::{RenderOptions, RenderOutput, RenderScene};
+    pub use raylume_scene::{Scene, SceneBuilder, SceneError, p3f};
 }

@@ -2,7 +2,7 @@
 
 use raylume::metrics::{log_log_slope, mae, mse, psnr, rel_mse, rmse};
 use raylume::prelude::*;
-use raylume::scene::SamplerKind;
+use raylume::render::SamplerKind;
 
 #[test]
 fn metrics_on_hand_computed_images() {
@@ -55,7 +55,7 @@ fn jittered_converges_faster_than_independent_on_a_blurred_edge() {
             sampler,
             ..Default::default()
         };
-        let mut once = |_: &raylume::scene::Progress| std::ops::ControlFlow::Continue(());
+        let mut once = |_: &raylume::render::Progress| std::ops::ControlFlow::Continue(());
         scene.render_progressive(&options, &[spp], &mut once).unwrap().film.channels()
     };
     let reference = render(4096, 99, SamplerKind::Jittered);

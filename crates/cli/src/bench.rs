@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Counts, Grid, GridParams};
 use raylume_geometry::{Interval, Ray};
+use raylume_render::RenderScene;
 use raylume_scene::{Scene, rays};
 use rayon::prelude::*;
 

@@ -4,7 +4,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use raylume_integrator::{Film, RenderSettings, metrics};
-use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, p3f};
+use raylume_render::{RenderOptions, RenderScene, SamplerKind};
+use raylume_scene::{DEFAULT_SCENE, p3f};
 
 use crate::{Failure, SamplerArg, bad_input};
 
@@ -66,7 +67,7 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             ..base.clone()
         };
         // One pass: a progressive render forces area sampling of the pixel even at 1 spp.
-        let mut once = |_: &raylume_scene::Progress| std::ops::ControlFlow::Continue(());
+        let mut once = |_: &raylume_render::Progress| std::ops::ControlFlow::Continue(());
         scene.render_progressive(&options, &[spp], &mut once).map_err(bad_input)
     };
     let reference: Film = match &args.reference {

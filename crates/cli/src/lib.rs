@@ -14,7 +14,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raylume_accel::AccelKind;
 use raylume_integrator::{Profile, RenderSettings};
 use raylume_material::FresnelMode;
-use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, Scene, limits, p3f, procedural};
+use raylume_render::{RenderOptions, RenderScene, SamplerKind, limits};
+use raylume_scene::{DEFAULT_SCENE, Scene, p3f, procedural};
 
 mod bench;
 mod converge;
@@ -385,7 +386,8 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     }
     // A cubemap the loader did not find was reported with its line: render with the background.
     if let Some(name) = &scene.env {
-        render_options.use_env &= raylume_scene::find_cubemap(name, &scene.env_search_dirs(&render_options)).is_ok();
+        render_options.use_env &=
+            raylume_scene::find_cubemap(name, &scene.cubemap_dirs(&render_options.env_dirs)).is_ok();
     }
     // What depends on the scene (its spp, the crop inside its image, the memory) before any work.
     scene.check(&render_options).map_err(bad_input)?;
@@ -452,7 +454,7 @@ fn scene_render(
     scene: &Scene,
     options: &RenderOptions,
     bar: &ProgressBar,
-) -> Result<raylume_scene::RenderOutput, Failure> {
+) -> Result<raylume_render::RenderOutput, Failure> {
     scene.render(options, &|| bar.inc(1)).map_err(bad_input)
 }
 

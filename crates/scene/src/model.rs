@@ -169,6 +169,20 @@ impl Scene {
         raylume_geometry::Interval::new(a, b)
     }
 
+    /// The folders the scene's `env` cubemap is looked for in: the scene's folder
+    /// ([`Scene::base_dir`], else the current one), its parent, then `extra`.
+    ///
+    /// ```
+    /// use std::path::PathBuf;
+    /// let mut scene = raylume_scene::p3f::parse(raylume_scene::DEFAULT_SCENE, "d", &Default::default()).unwrap().scene;
+    /// scene.base_dir = Some(PathBuf::from("scenes"));
+    /// let dirs = scene.cubemap_dirs(&[PathBuf::from("maps")]);
+    /// assert_eq!(dirs, [PathBuf::from("scenes"), PathBuf::from("scenes/.."), PathBuf::from("maps")]);
+    /// ```
+    pub fn cubemap_dirs(&self, extra: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
+        crate::p3f::env_search_dirs(self.base_dir.as_deref(), extra)
+    }
+
     /// The number of primitives the scene makes (triangles of polygons and meshes counted one by one).
     pub fn primitive_count(&self) -> usize {
         self.objects
@@ -186,7 +200,7 @@ impl Scene {
 impl Scene {
     /// Checks that the scene can be rendered: a camera within the [`limits`](crate::limits), finite
     /// numbers everywhere, radii and counts that make shapes, mesh and material indices in range.
-    /// [`crate::SceneBuilder::build`] and [`Scene::render`] call it, so a scene made in code meets
+    /// [`crate::SceneBuilder::build`] and the render (`raylume_render::RenderScene::render`) call it, so a scene made in code meets
     /// the same rules as a file.
     ///
     /// ```

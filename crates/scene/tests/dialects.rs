@@ -5,8 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use raylume_geometry::{Vec3, Vec3A};
+use raylume_render::{RenderOptions, RenderScene};
 use raylume_scene::p3f::{Dialect, LoadOptions, Loaded, load, parse};
-use raylume_scene::{LightShape, RenderOptions, Scene, SceneError, Shape};
+use raylume_scene::{LightShape, Scene, SceneError, Shape};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/dialects").join(name)

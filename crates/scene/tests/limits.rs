@@ -4,7 +4,8 @@
 use raylume_geometry::{Vec3, Vec3A};
 use raylume_integrator::RenderSettings;
 use raylume_material::Phong;
-use raylume_scene::{RenderOptions, Scene, SceneBuilder, SceneError, Shape, limits, obj, p3f};
+use raylume_render::{RenderOptions, RenderScene, limits};
+use raylume_scene::{Scene, SceneBuilder, SceneError, Shape, obj, p3f};
 
 fn lit() -> SceneBuilder {
     SceneBuilder::new()

@@ -344,7 +344,7 @@ impl<'a, 'f> Parser<'a, 'f> {
         let env = parts.env;
         if let Some((name, tag)) = &env {
             let dirs = env_search_dirs(self.options.base_dir.as_deref(), &self.options.env_dirs);
-            if let Err(why) = crate::env::find_cubemap(name, &dirs) {
+            if let Err(why) = crate::cubemap::find_cubemap(name, &dirs) {
                 let message = format!("environment map: {why}; escaping rays show the background colour");
                 if let Err(e) = self.warn(tag, message) {
                     return Err(e.with_earlier_warnings(self.warnings));

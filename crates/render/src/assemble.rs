@@ -1,195 +1,19 @@
 use std::ops::ControlFlow;
-use std::path::PathBuf;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Grid, GridParams};
+use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Grid};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Centre, Film, Independent, Integrator, Jittered, Light, Profile, RayStats, RenderSettings, Sampler,
-    Shading, Sobol, SoftShadows, Whitted, World, render,
+    Background, Centre, Film, Independent, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading,
+    Sobol, SoftShadows, Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
-use crate::{LightShape, Scene, SceneError, Shape, Warning, limits, load_cubemap, p3f};
+use raylume_scene::{LightShape, Scene, SceneError, Shape, Warning};
 
-/// How to render a scene: the integrator's settings plus overrides of what the scene file says.
-///
-/// The defaults render a scene as the CLI does without flags: the scene's own `spp`, accelerator
-/// hint and cubemap (looked for beside the scene file, then in its parent folder).
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderOptions {
-    /// Depth, seed, Fresnel mode, light grid, crop; its `spp` is used only for a scene without
-    /// `spp` when [`RenderOptions::spp`] is `None`.
-    pub settings: RenderSettings,
-    /// Samples per pixel; `None` takes the scene's `spp` (0 meaning one sample at the pixel
-    /// centre), else `settings.spp`.
-    pub spp: Option<u32>,
-    /// Make what would be a warning (a missing cubemap) an error.
-    pub strict: bool,
-    /// The accelerator; `None` takes the scene's `accel` hint, else the BVH.
-    pub accel: Option<AccelKind>,
-    /// Overrides the scene's resolution (the vertical field of view is kept).
-    pub resolution: Option<(u32, u32)>,
-    /// Further folders searched for the scene's `env` cubemap, after the scene's folder
-    /// ([`Scene::base_dir`], else the current one) and its parent.
-    pub env_dirs: Vec<PathBuf>,
-    /// Whether to use the scene's cubemap (false: escaping rays return the background colour).
-    pub use_env: bool,
-    /// Scale of every material's specular highlight (1 in the plain model).
-    pub specular_scale: f32,
-    /// Makes every light a square area light of this side (0: every light a point).
-    pub area_light_size: Option<f32>,
-    /// Overrides every reflective material's roughness.
-    pub roughness: Option<f32>,
-    /// Overrides the camera's aperture (p3f units: multiples of the pixel size).
-    pub aperture: Option<f32>,
-    /// Overrides the camera's focal distance (a ratio of the view-plane distance).
-    pub focal: Option<f32>,
-    /// Overrides the shutter interval.
-    pub shutter: Option<(f32, f32)>,
-    /// How the uniform grid is sized, when it is the accelerator.
-    pub grid: GridParams,
-    /// The sampler of antialiased renders.
-    pub sampler: SamplerKind,
-    /// The shading rules (plain, or the course's reference renders'); it overrides `settings.profile`.
-    /// The depth stays `settings.max_depth` (the course profile's images use [`Profile::default_depth`]).
-    pub profile: Profile,
-}
-
-/// Which sampler draws the samples of antialiased renders.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum SamplerKind {
-    /// The course's jittered (stratified) sampler.
-    #[default]
-    Jittered,
-    /// Independent uniform random samples.
-    Independent,
-    /// Owen-scrambled Sobol points (a low-discrepancy sequence).
-    Sobol,
-}
-
-impl RenderOptions {
-    /// Checks the options that do not depend on a scene against the [`limits`]: the settings, the
-    /// resolution, every override's range, the grid's density. [`Scene::check`] adds what needs the
-    /// scene (its `spp`, the crop inside its image, the memory).
-    ///
-    /// ```
-    /// use raylume_scene::RenderOptions;
-    /// assert!(RenderOptions::default().validate().is_ok());
-    /// let huge = RenderOptions { resolution: Some((100_000, 100_000)), ..RenderOptions::default() };
-    /// assert!(huge.validate().unwrap_err().to_string().starts_with("resolution 100000 x 100000"));
-    /// ```
-    pub fn validate(&self) -> Result<(), SceneError> {
-        let invalid = |m: String| Err(SceneError::Invalid(m));
-        self.settings.validate().map_err(SceneError::Invalid)?;
-        if let Some((w, h)) = self.resolution {
-            let side = 1..=limits::MAX_RESOLUTION;
-            if !side.contains(&w) || !side.contains(&h) || w as u64 * h as u64 > limits::MAX_PIXELS {
-                return invalid(format!(
-                    "resolution {w} x {h}: each side must be 1..={} and the image at most {} pixels",
-                    limits::MAX_RESOLUTION,
-                    limits::MAX_PIXELS
-                ));
-            }
-        }
-        if let Some(spp) = self.spp.filter(|&n| n > limits::MAX_SPP) {
-            return invalid(format!("spp {spp}: expected 0..={}", limits::MAX_SPP));
-        }
-        let check = |name: &str, v: Option<f32>, range: &str, ok: fn(f32) -> bool| match v {
-            Some(x) if !x.is_finite() || !ok(x) => invalid(format!("{name} {x}: expected {range}")),
-            _ => Ok(()),
-        };
-        check("area light size", self.area_light_size, "a finite number >= 0", |x| x >= 0.0)?;
-        check("roughness", self.roughness, "[0, 1]", |x| (0.0..=1.0).contains(&x))?;
-        check("aperture", self.aperture, "a finite number >= 0", |x| x >= 0.0)?;
-        check("focal distance", self.focal, "a finite number > 0", |x| x > 0.0)?;
-        check("specular scale", Some(self.specular_scale), "a finite number >= 0", |x| x >= 0.0)?;
-        check("grid density", Some(self.grid.k), "(0, 1000]", |k| k > 0.0 && k <= limits::MAX_GRID_K)?;
-        if let Some((t0, t1)) = self.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
-            return invalid(format!("shutter [{t0}, {t1}] is not an interval"));
-        }
-        Ok(())
-    }
-}
-
-impl Default for RenderOptions {
-    fn default() -> Self {
-        Self {
-            settings: RenderSettings::default(),
-            spp: None,
-            strict: false,
-            accel: None,
-            resolution: None,
-            env_dirs: Vec::new(),
-            use_env: true,
-            specular_scale: 1.0,
-            area_light_size: None,
-            roughness: None,
-            aperture: None,
-            focal: None,
-            shutter: None,
-            grid: GridParams::default(),
-            sampler: SamplerKind::default(),
-            profile: Profile::Plain,
-        }
-    }
-}
-
-/// What a render uses, derived from the scene and the options before rendering; each effect not
-/// used is left out of the render loop that runs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Features {
-    /// More than one sample per pixel.
-    pub antialiasing: bool,
-    /// Some light has a size.
-    pub area_lights: bool,
-    /// The camera has an aperture.
-    pub depth_of_field: bool,
-    /// Some reflective material is rough.
-    pub fuzzy_reflections: bool,
-    /// Some sphere moves during a shutter interval of non-zero length.
-    pub motion_blur: bool,
-    /// Some material transmits light.
-    pub transmission: bool,
-    /// The scene has lights.
-    pub lights: bool,
-}
-
-impl std::fmt::Display for Features {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let names = [
-            (self.antialiasing, "antialiasing"),
-            (self.area_lights, "soft shadows"),
-            (self.depth_of_field, "depth of field"),
-            (self.fuzzy_reflections, "fuzzy reflections"),
-            (self.motion_blur, "motion blur"),
-            (self.transmission, "refraction"),
-        ];
-        let used: Vec<&str> = names.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect();
-        if used.is_empty() { write!(f, "none") } else { write!(f, "{}", used.join(", ")) }
-    }
-}
-
-/// A rendered image and what it took.
-#[derive(Clone, Debug)]
-pub struct RenderOutput {
-    /// The image.
-    pub film: Film,
-    /// Rays traced by kind.
-    pub stats: RayStats,
-    /// The accelerator used.
-    pub accel: AccelKind,
-    /// The effects the render used.
-    pub features: Features,
-    /// Seconds spent building the accelerator.
-    pub build_seconds: f64,
-    /// Seconds spent tracing.
-    pub render_seconds: f64,
-    /// What the render left out (a cubemap that was not found), to be shown to the user.
-    pub warnings: Vec<Warning>,
-}
+use crate::{Features, RenderOptions, RenderOutput, RenderScene, SamplerKind, limits, load_cubemap};
 
 /// The primitives of a scene with their shading data, in one order.
 pub struct Primitives {
@@ -201,9 +25,8 @@ pub struct Primitives {
     pub vertex_normals: Vec<[Vec3A; 3]>,
 }
 
-impl Scene {
-    /// The primitives the scene's objects make (polygons as triangle fans, meshes as triangles).
-    pub fn primitives(&self) -> Primitives {
+impl RenderScene for Scene {
+    fn primitives(&self) -> Primitives {
         let count = self.primitive_count();
         let mut out = Primitives {
             primitives: Vec::with_capacity(count),
@@ -232,14 +55,14 @@ impl Scene {
                 ),
                 Shape::Box { min, max } => push(Primitive::Box(AaBox { bounds: Aabb::new(*min, *max) }), none),
                 Shape::Polygon(v) => {
-                    for t in crate::triangulate(v) {
+                    for t in raylume_scene::triangulate(v) {
                         let [a, b, c] = t.map(|i| v[i as usize]);
                         push(Primitive::Triangle(Triangle::new(a, b, c)), none);
                     }
                 }
                 Shape::Patch(v) => {
                     let points: Vec<Vec3A> = v.iter().map(|p| p.0).collect();
-                    for t in crate::triangulate(&points) {
+                    for t in raylume_scene::triangulate(&points) {
                         let [a, b, c] = t.map(|i| v[i as usize]);
                         let index = out.vertex_normals.len() as u32;
                         out.vertex_normals.push([a.1, b.1, c.1].map(|n| n.normalize_or_zero()));
@@ -272,8 +95,7 @@ impl Scene {
         out
     }
 
-    /// The accelerator `options` ask for, else the scene's hint, else the BVH.
-    pub fn accel_kind(&self, options: &RenderOptions) -> AccelKind {
+    fn accel_kind(&self, options: &RenderOptions) -> AccelKind {
         options.accel.unwrap_or(match self.accel_hint {
             Some(0) => AccelKind::None,
             Some(1) => AccelKind::Grid,
@@ -281,6 +103,49 @@ impl Scene {
         })
     }
 
+    fn check(&self, options: &RenderOptions) -> Result<(), SceneError> {
+        self.prepared(options).map(|_| ())
+    }
+
+    fn features(&self, options: &RenderOptions) -> Result<Features, SceneError> {
+        Ok(self.features_of(&self.prepared(options)?))
+    }
+
+    fn samples_per_pixel(&self, options: &RenderOptions) -> Result<u32, SceneError> {
+        Ok(self.prepared(options)?.settings.spp)
+    }
+
+    fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError> {
+        self.render_passes(options, on_row, None)
+    }
+
+    fn render_progressive(
+        &self,
+        options: &RenderOptions,
+        passes: &[u32],
+        on_pass: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+    ) -> Result<RenderOutput, SceneError> {
+        if passes.is_empty() || passes.iter().any(|&n| n == 0 || n > limits::MAX_SPP) {
+            return Err(SceneError::Invalid(format!("progressive passes need 1..={} samples each", limits::MAX_SPP)));
+        }
+        self.render_passes(options, &|| {}, Some((passes, on_pass)))
+    }
+}
+
+/// The steps of a render, private to this module.
+trait Steps {
+    fn prepared(&self, options: &RenderOptions) -> Result<Prepared, SceneError>;
+    fn background(&self, options: &RenderOptions, warnings: &mut Vec<Warning>) -> Result<Background, SceneError>;
+    fn features_of(&self, p: &Prepared) -> Features;
+    fn render_passes(
+        &self,
+        options: &RenderOptions,
+        on_row: &(dyn Fn() + Sync),
+        progressive: Option<(&[u32], OnPass)>,
+    ) -> Result<RenderOutput, SceneError>;
+}
+
+impl Steps for Scene {
     /// The scene as it will be rendered with `options`: its view, lights and materials with the
     /// overrides applied.
     fn prepared(&self, options: &RenderOptions) -> Result<Prepared, SceneError> {
@@ -341,17 +206,12 @@ impl Scene {
         Ok(Prepared { view, lights, materials, shutter, settings })
     }
 
-    /// The folders the scene's cubemap is looked for in with `options`.
-    pub fn env_search_dirs(&self, options: &RenderOptions) -> Vec<PathBuf> {
-        p3f::env_search_dirs(self.base_dir.as_deref(), &options.env_dirs)
-    }
-
     /// What escaping rays see: the cubemap, if the scene has one that `options` use and it is
     /// found, else the background colour (with a warning, or an error under `strict`).
     fn background(&self, options: &RenderOptions, warnings: &mut Vec<Warning>) -> Result<Background, SceneError> {
         let env = match (&self.env, options.use_env) {
-            (Some(name), true) => match crate::find_cubemap(name, &self.env_search_dirs(options)) {
-                Ok(_) => Some(load_cubemap(name, &self.env_search_dirs(options))?),
+            (Some(name), true) => match raylume_scene::find_cubemap(name, &self.cubemap_dirs(&options.env_dirs)) {
+                Ok(_) => Some(load_cubemap(name, &self.cubemap_dirs(&options.env_dirs))?),
                 Err(why) if options.strict => {
                     return Err(SceneError::Environment { name: name.clone(), message: why });
                 }
@@ -370,23 +230,6 @@ impl Scene {
         Ok(Background { color: self.background, env })
     }
 
-    /// Checks that rendering with `options` can start: the scene ([`Scene::validate`]), the
-    /// settings and overrides against the [`limits`], the crop inside the image, and the memory the
-    /// render would take. [`Scene::render`] does the same before any work.
-    pub fn check(&self, options: &RenderOptions) -> Result<(), SceneError> {
-        self.prepared(options).map(|_| ())
-    }
-
-    /// What rendering with `options` uses.
-    pub fn features(&self, options: &RenderOptions) -> Result<Features, SceneError> {
-        Ok(self.features_of(&self.prepared(options)?))
-    }
-
-    /// The samples per pixel a render with `options` takes (before the sampler rounds them).
-    pub fn samples_per_pixel(&self, options: &RenderOptions) -> Result<u32, SceneError> {
-        Ok(self.prepared(options)?.settings.spp)
-    }
-
     fn features_of(&self, p: &Prepared) -> Features {
         let Prepared { view, lights, materials, shutter, settings } = p;
         let moving = self
@@ -402,45 +245,6 @@ impl Scene {
             transmission: materials.iter().any(|m| m.transmittance > 0.0),
             lights: !lights.is_empty(),
         }
-    }
-
-    /// Renders the scene. `on_row` is called once per finished image row.
-    ///
-    /// The effects the scene and options use ([`Scene::features`]) choose one of a small set of
-    /// monomorphised render loops (camera, sampler and soft-shadow mode are type parameters), so
-    /// the work of an unused effect is absent from the loop rather than skipped per ray.
-    pub fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError> {
-        self.render_passes(options, on_row, None)
-    }
-
-    /// Renders progressively: one pass per entry of `passes` (samples per pixel), each with its own
-    /// seed, accumulated into one image weighted by samples. After each pass `on_pass` gets the image so
-    /// far and the time spent; it returns [`ControlFlow::Break`] to stop there (a time budget). The
-    /// passes always sample the pixel area (antialiasing on), so every pass estimates the same image.
-    ///
-    /// ```
-    /// use std::ops::ControlFlow;
-    /// use raylume_scene::{p3f, RenderOptions, DEFAULT_SCENE};
-    /// let scene = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
-    /// let options = RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() };
-    /// let mut seen = Vec::new();
-    /// let out = scene.render_progressive(&options, &[1, 3, 4, 8], &mut |p| {
-    ///     seen.push(p.samples_per_pixel);
-    ///     if p.samples_per_pixel >= 8 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
-    /// }).unwrap();
-    /// assert_eq!(seen, [1, 5, 9]); // 3 and 8 round up to 4 and 9 jittered samples
-    /// assert_eq!(out.film.width(), 16);
-    /// ```
-    pub fn render_progressive(
-        &self,
-        options: &RenderOptions,
-        passes: &[u32],
-        on_pass: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
-    ) -> Result<RenderOutput, SceneError> {
-        if passes.is_empty() || passes.iter().any(|&n| n == 0 || n > limits::MAX_SPP) {
-            return Err(SceneError::Invalid(format!("progressive passes need 1..={} samples each", limits::MAX_SPP)));
-        }
-        self.render_passes(options, &|| {}, Some((passes, on_pass)))
     }
 
     fn render_passes(
@@ -514,7 +318,7 @@ struct Job<'a> {
     passes: &'a [u32],
 }
 
-/// What [`Scene::render_progressive`] hands out after each pass.
+/// What [`RenderScene::render_progressive`] hands out after each pass.
 #[derive(Debug)]
 pub struct Progress<'a> {
     /// The image so far: the sample-weighted mean of all passes.
