@@ -178,9 +178,8 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
     }
     let (x0, x1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
     let (y0, y1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
-    let tmp = path.with_file_name(format!(".convergence.{}.png", std::process::id()));
-    let draw = || -> Result<(), Box<dyn std::error::Error>> {
-        let root = BitMapBackend::new(&tmp, (900, 600)).into_drawing_area();
+    let draw = |tmp: &Path| -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(tmp, (900, 600)).into_drawing_area();
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(&root)
             .caption(format!("RMSE against render time: {title}"), ("sans-serif", 24))
@@ -213,11 +212,7 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
         root.present()?;
         Ok(())
     };
-    let result = draw().and_then(|()| Ok(std::fs::rename(&tmp, path)?));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    raylume_integrator::write_atomically(path, draw, |e| e.into())
 }
 
 /// Whether a point can stand on the log-log axes.

@@ -479,9 +479,7 @@ fn generate(name: &str, size: u32) -> Result<(), Failure> {
 /// The bench's flags within their limits (before a scene is read).
 fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
     check_threads(Some(args.threads))?;
-    if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= limits::MAX_GRID_K) {
-        return Err(bad_input(format!("--grid-k {}: expected a number in (0, {}]", args.grid_k, limits::MAX_GRID_K)));
-    }
+    raylume_accel::GridParams { k: args.grid_k, mailbox: true }.validate().map_err(bad_input)?;
     if args.count == 0 || args.count > 1 << 28 {
         return Err(bad_input(format!("--count {}: expected 1..=2^28 rays", args.count)));
     }

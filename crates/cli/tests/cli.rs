@@ -40,7 +40,7 @@ fn default_scene_renders_to_png_exr_and_pfm() {
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
         .collect();
     assert!(leftovers.is_empty());
 }
@@ -424,6 +424,7 @@ fn flags_beyond_the_limits_exit_2_before_any_work() {
         (&["--crop", "700", "0", "710", "4"], "crop 700 0 710 4: expected pixels inside the 640 x 400 image"),
         (&["--crop", "0", "390", "8", "410"], "crop 0 390 8 410: expected pixels inside the 640 x 400 image"),
         (&["--shutter", "1", "0"], "shutter [1, 0] is not an interval"),
+        (&["--grid-k", "0"], "grid density 0: expected a number in (0, 1000]"),
     ];
     for (flags, message) in cases {
         let run = raylume().arg("render").args(*flags).arg("-o").arg(&out).output().unwrap();
@@ -436,6 +437,18 @@ fn flags_beyond_the_limits_exit_2_before_any_work() {
         );
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+/// `render` and `bench` check the grid's density with the same rule and say so in the same words.
+#[test]
+fn render_and_bench_refuse_a_grid_density_alike() {
+    for k in ["0", "NaN", "1001"] {
+        let render = raylume_cli::check_arguments(["render", "--grid-k", k]).unwrap_err();
+        let bench = raylume_cli::check_arguments(["bench", "--grid-k", k]).unwrap_err();
+        assert_eq!(render, bench);
+        assert!(render.starts_with(&format!("grid density {k}: expected a number in (0, 1000]")), "{render}");
+    }
+    assert!(raylume_cli::check_arguments(["bench", "--grid-k", "1000"]).is_ok());
 }
 
 fn write_pfm(path: &std::path::Path, w: u32, h: u32, pixel: impl Fn(u32) -> [f32; 3]) {

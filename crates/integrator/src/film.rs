@@ -109,6 +109,42 @@ pub fn remove_partial_outputs() -> std::sync::MutexGuard<'static, Vec<PathBuf>> 
     partial
 }
 
+/// Writes the file `path` through a temporary file beside it (`.NAME.PID.tmp.EXT`, keeping the
+/// extension for writers that go by it): `write` fills the temporary file, which is then renamed
+/// over `path`. A failed write removes the temporary file and leaves `path` as it was, and so does
+/// a signal through [`remove_partial_outputs`]: no half-written file is ever left. `rename_failed`
+/// turns an error of the rename into `write`'s error type.
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("raylume-doc-{}.txt", std::process::id()));
+/// let wrote = raylume_integrator::write_atomically(&path, |tmp| std::fs::write(tmp, "done"), |e| e);
+/// assert!(wrote.is_ok());
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "done");
+/// let failed: Result<(), String> = raylume_integrator::write_atomically(&path, |_| Err("no".into()), |e| e.to_string());
+/// assert!(failed.is_err());
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "done", "the previous file is left");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn write_atomically<E>(
+    path: impl AsRef<Path>,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+    rename_failed: impl FnOnce(std::io::Error) -> E,
+) -> Result<(), E> {
+    let path = path.as_ref();
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp{ext}", std::process::id()));
+    PARTIAL.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+    let written = write(&tmp);
+    let mut partial = PARTIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let renamed = written.and_then(|()| std::fs::rename(&tmp, path).map_err(rename_failed));
+    if renamed.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    partial.retain(|p| p != &tmp);
+    renamed
+}
+
 impl Film {
     /// A film from pixels in row order, top row first. Panics if the count is not `width * height`.
     pub fn from_pixels(width: u32, height: u32, pixels: Vec<Vec3>) -> Self {
@@ -160,19 +196,7 @@ impl Film {
             return Err(OutputError::Empty { path: path.to_owned(), width: self.width, height: self.height });
         }
         let io = |source| OutputError::Io { path: path.to_owned(), source };
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-        PARTIAL.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
-        let encoded = self.encode(&tmp, format);
-        let result = {
-            let mut partial = PARTIAL.lock().unwrap_or_else(|e| e.into_inner());
-            let renamed = encoded.and_then(|()| std::fs::rename(&tmp, path).map_err(io));
-            if renamed.is_err() {
-                let _ = std::fs::remove_file(&tmp);
-            }
-            partial.retain(|p| p != &tmp);
-            renamed
-        };
+        let result = write_atomically(path, |tmp| self.encode(tmp, format), io);
         result.map_err(|e| match e {
             OutputError::Io { source, .. } => OutputError::Io { path: path.to_owned(), source },
             OutputError::Encode { source, .. } => OutputError::Encode { path: path.to_owned(), source },

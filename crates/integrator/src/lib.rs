@@ -36,7 +36,9 @@ pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
-pub use film::{Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs};
+pub use film::{
+    Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs, write_atomically,
+};
 pub use profile::Profile;
 pub use render::{MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, RayStats, RenderSettings, render};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
@@ -91,8 +93,9 @@ impl Light {
 pub struct Shading {
     /// Index into the world's materials.
     pub material: u32,
-    /// Index into the world's vertex-normal table, or `u32::MAX` for none.
-    pub normals: u32,
+    /// Index into the world's vertex-normal table of a smooth triangle; `None` shades with the
+    /// geometric normal.
+    pub normals: Option<u32>,
 }
 
 /// Everything a render reads: the accelerator over the primitives, the materials, the lights and
@@ -121,7 +124,7 @@ impl<A: Accelerator, M: Material> World<A, M> {
         lights: Vec<Light>,
         background: Background,
     ) -> Self {
-        let shading = prim_material.into_iter().map(|material| Shading { material, normals: u32::MAX }).collect();
+        let shading = prim_material.into_iter().map(|material| Shading { material, normals: None }).collect();
         Self { accel, materials, shading, vertex_normals: Vec::new(), lights, background }
     }
 }

@@ -127,10 +127,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
         let entering = hit.front_face(ray);
         // Geometric normal on the side the ray came from.
         let n = if entering { hit.normal } else { -hit.normal };
-        let ns = if shading.normals == u32::MAX {
-            n
-        } else {
-            let vn = world.vertex_normals[shading.normals as usize];
+        let ns = if let Some(index) = shading.normals {
+            let vn = world.vertex_normals[index as usize];
             let b = hit.uv;
             let s = (vn[0] * (1.0 - b.x - b.y) + vn[1] * b.x + vn[2] * b.y).normalize_or_zero();
             if s == Vec3A::ZERO {
@@ -140,6 +138,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
             } else {
                 s
             }
+        } else {
+            n
         };
         let wo = -ray.dir;
         let above = offset_ray_origin(hit.point, hit.error, n);

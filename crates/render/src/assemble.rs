@@ -1,7 +1,7 @@
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Grid};
+use raylume_accel::{AccelKind, AccelVisitor, Accelerator, with_accelerator};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
@@ -11,7 +11,7 @@ use raylume_integrator::{
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
-use raylume_scene::{LightShape, Scene, SceneError, Shape, Warning};
+use raylume_scene::{AccelHint, LightShape, Scene, SceneError, Shape, Warning};
 
 use crate::{Features, RenderOptions, RenderOutput, RenderScene, SamplerKind, limits, load_cubemap};
 
@@ -33,9 +33,9 @@ impl RenderScene for Scene {
             shading: Vec::with_capacity(count),
             vertex_normals: Vec::new(),
         };
-        let none = u32::MAX;
+        let none = None;
         for o in &self.objects {
-            let mut push = |p: Primitive, normals: u32| {
+            let mut push = |p: Primitive, normals: Option<u32>| {
                 out.primitives.push(p);
                 out.shading.push(Shading { material: o.material, normals });
             };
@@ -67,7 +67,7 @@ impl RenderScene for Scene {
                         let index = out.vertex_normals.len() as u32;
                         out.vertex_normals.push([a.1, b.1, c.1].map(|n| n.normalize_or_zero()));
                         out.primitives.push(Primitive::Triangle(Triangle::new(a.0, b.0, c.0)));
-                        out.shading.push(Shading { material: o.material, normals: index });
+                        out.shading.push(Shading { material: o.material, normals: Some(index) });
                     }
                 }
                 Shape::Plane([p0, p1, p2]) => {
@@ -97,9 +97,9 @@ impl RenderScene for Scene {
 
     fn accel_kind(&self, options: &RenderOptions) -> AccelKind {
         options.accel.unwrap_or(match self.accel_hint {
-            Some(0) => AccelKind::None,
-            Some(1) => AccelKind::Grid,
-            _ => AccelKind::Bvh,
+            Some(AccelHint::None) => AccelKind::None,
+            Some(AccelHint::Grid) => AccelKind::Grid,
+            Some(AccelHint::Bvh) | None => AccelKind::Bvh,
         })
     }
 
@@ -277,23 +277,41 @@ impl Steps for Scene {
             Some(p) => p.1,
             None => &mut ignore,
         };
-        // One monomorphised path per accelerator: the world is generic over it.
-        macro_rules! run {
-            ($accel:expr) => {{
-                let world = World { accel: $accel, materials, shading, vertex_normals, lights, background };
-                let b = build.elapsed().as_secs_f64();
-                let (f, s, r) = job.with_camera(&world, on_pass);
-                (f, s, b, r)
-            }};
-        }
-        let (film, stats, build_seconds, render_seconds) = match kind {
-            AccelKind::None => run!(BruteForce::new(primitives)),
-            AccelKind::Bvh => run!(Bvh::new(primitives, shutter)),
-            AccelKind::BvhPortable => run!(Bvh::with_kernel(primitives, shutter, BvhBuild::Sah, BvhKernel::Portable)),
-            AccelKind::BvhMidpoint => run!(Bvh::with_build(primitives, shutter, BvhBuild::Midpoint)),
-            AccelKind::Grid => run!(Grid::new(primitives, shutter, options.grid)),
-        };
+        let parts = WorldParts { materials, shading, vertex_normals, lights, background };
+        let visitor = RenderWith { parts, build, job: &job, on_pass };
+        let (film, stats, build_seconds, render_seconds) =
+            with_accelerator(kind, primitives, shutter, options.grid, visitor);
         Ok(RenderOutput { film, stats, accel: kind, features, build_seconds, render_seconds, warnings })
+    }
+}
+
+/// A world without its accelerator.
+struct WorldParts {
+    materials: Vec<Phong>,
+    shading: Vec<Shading>,
+    vertex_normals: Vec<[Vec3A; 3]>,
+    lights: Vec<Light>,
+    background: Background,
+}
+
+/// Renders a job once the accelerator is built: one monomorphised render loop per accelerator.
+struct RenderWith<'a, 'p> {
+    parts: WorldParts,
+    build: Instant,
+    job: &'a Job<'a>,
+    on_pass: OnPass<'p>,
+}
+
+impl AccelVisitor for RenderWith<'_, '_> {
+    /// The image, the rays, and the seconds spent building and rendering.
+    type Output = (Film, RayStats, f64, f64);
+
+    fn visit<A: Accelerator>(self, accel: A) -> Self::Output {
+        let WorldParts { materials, shading, vertex_normals, lights, background } = self.parts;
+        let world = World { accel, materials, shading, vertex_normals, lights, background };
+        let build_seconds = self.build.elapsed().as_secs_f64();
+        let (film, stats, render_seconds) = self.job.with_camera(&world, self.on_pass);
+        (film, stats, build_seconds, render_seconds)
     }
 }
 
@@ -390,8 +408,11 @@ impl Job<'_> {
         let (mut acc, mut total, mut stats) = (None::<Film>, 0u32, RayStats::default());
         for (pass, &spp) in self.passes.iter().enumerate() {
             // Pass 0 keeps the seed, so a one-pass render is the plain render.
-            let seed =
-                if pass == 0 { self.settings.seed } else { splitmix(self.settings.seed.wrapping_add(pass as u64)) };
+            let seed = if pass == 0 {
+                self.settings.seed
+            } else {
+                raylume_integrator::sampler::splitmix(self.settings.seed.wrapping_add(pass as u64))
+            };
             let settings = RenderSettings { spp, seed, ..*self.settings };
             let sampler = make_sampler(seed, spp);
             let n = sampler.samples_per_pixel();
@@ -415,11 +436,4 @@ impl Job<'_> {
         let film = acc.unwrap_or_else(|| Film::from_pixels(0, 0, Vec::new()));
         (film, stats, start.elapsed().as_secs_f64())
     }
-}
-
-fn splitmix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }

@@ -9,7 +9,7 @@ pub use raylume_scene::limits::{MAX_FILE_BYTES, MAX_OBJ_BYTES, MAX_PIXELS, MAX_R
 /// Most worker threads.
 pub const MAX_THREADS: usize = 1024;
 /// Largest uniform-grid density (cells per primitive).
-pub const MAX_GRID_K: f32 = 1000.0;
+pub const MAX_GRID_K: f32 = raylume_accel::GridParams::MAX_K;
 /// Most memory a render may plan to take for its primitives, accelerator and image, in bytes.
 pub const MAX_RENDER_BYTES: u64 = 16 << 30;
 

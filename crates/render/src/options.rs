@@ -98,7 +98,7 @@ impl RenderOptions {
         check("aperture", self.aperture, "a finite number >= 0", |x| x >= 0.0)?;
         check("focal distance", self.focal, "a finite number > 0", |x| x > 0.0)?;
         check("specular scale", Some(self.specular_scale), "a finite number >= 0", |x| x >= 0.0)?;
-        check("grid density", Some(self.grid.k), "(0, 1000]", |k| k > 0.0 && k <= limits::MAX_GRID_K)?;
+        self.grid.validate().map_err(SceneError::Invalid)?;
         if let Some((t0, t1)) = self.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
             return invalid(format!("shutter [{t0}, {t1}] is not an interval"));
         }

@@ -2,7 +2,7 @@ use raylume_camera::View;
 use raylume_geometry::{Vec3, Vec3A};
 use raylume_material::Phong;
 
-use crate::{Light, LightShape, Object, Scene, SceneError, Shape};
+use crate::{AccelHint, Light, LightShape, Object, Scene, SceneError, Shape};
 
 /// Builds a [`Scene`] in code, entity by entity, as a p3f file would: each object takes the material
 /// set last.
@@ -30,7 +30,7 @@ pub struct SceneBuilder {
     lights: Vec<Light>,
     materials: Vec<Phong>,
     objects: Vec<Object>,
-    accel_hint: Option<u32>,
+    accel_hint: Option<AccelHint>,
     spp_hint: Option<u32>,
     shutter: Option<(f32, f32)>,
     error: Option<String>,
@@ -136,8 +136,8 @@ impl SceneBuilder {
         self.shape(Shape::Mesh { vertices, triangles })
     }
 
-    /// The suggested accelerator (0 none, 1 grid, 2 BVH).
-    pub fn accel_hint(mut self, hint: u32) -> Self {
+    /// The suggested accelerator.
+    pub fn accel_hint(mut self, hint: AccelHint) -> Self {
         self.accel_hint = Some(hint);
         self
     }

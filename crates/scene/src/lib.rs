@@ -38,7 +38,7 @@ mod writer;
 pub use builder::SceneBuilder;
 pub use cubemap::{CUBEMAP_FACES, cubemap_faces, find_cubemap};
 pub use error::{SceneError, Warning};
-pub use model::{Light, LightShape, Object, Scene, Shape};
+pub use model::{AccelHint, Light, LightShape, Object, Scene, Shape};
 pub use polygon::triangulate;
 
 /// The embedded default scene (p3f text), rendered when the CLI is given no scene.

@@ -20,8 +20,8 @@ pub struct Scene {
     pub materials: Vec<Phong>,
     /// Objects, each with its material.
     pub objects: Vec<Object>,
-    /// Suggested accelerator (p3f `accel`): 0 none, 1 grid, 2 BVH.
-    pub accel_hint: Option<u32>,
+    /// Suggested accelerator (p3f `accel`).
+    pub accel_hint: Option<AccelHint>,
     /// Suggested samples per pixel (p3f `spp`).
     pub spp_hint: Option<u32>,
     /// The camera's shutter interval (raylume's `shutter t0 t1` tag); by default the moving spheres'
@@ -30,6 +30,29 @@ pub struct Scene {
     /// The folder the scene's relative names (its `env` cubemap, `obj` meshes) are looked up in
     /// first, then its parent: the scene file's folder when it was read by [`crate::p3f::load`].
     pub base_dir: Option<std::path::PathBuf>,
+}
+
+/// The accelerator a scene file suggests (p3f `accel`: `0`/`none`, `1`/`grid`, `2`/`bvh`); its
+/// value as a number is the one p3f writes.
+///
+/// ```
+/// use raylume_scene::AccelHint;
+/// assert_eq!(AccelHint::ALL[1], AccelHint::Grid);
+/// assert_eq!(AccelHint::Bvh as u32, 2);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccelHint {
+    /// No accelerator: every primitive tested by every ray (`accel 0`).
+    None = 0,
+    /// A uniform grid (`accel 1`).
+    Grid = 1,
+    /// A bounding volume hierarchy (`accel 2`).
+    Bvh = 2,
+}
+
+impl AccelHint {
+    /// The hints in the order of their p3f numbers.
+    pub const ALL: [AccelHint; 3] = [AccelHint::None, AccelHint::Grid, AccelHint::Bvh];
 }
 
 /// A light: a point, or an area light whose [`LightShape`] starts at `position`.
@@ -284,9 +307,6 @@ fn validate(s: &Scene) -> Result<(), String> {
     }
     if let Some(spp) = s.spp_hint.filter(|&n| n > MAX_SPP) {
         return Err(format!("spp {spp}: expected 0..={MAX_SPP}"));
-    }
-    if let Some(a) = s.accel_hint.filter(|&a| a > 2) {
-        return Err(format!("accel {a}: expected 0 (none), 1 (grid) or 2 (BVH)"));
     }
     if let Some((t0, t1)) = s.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
         return Err(format!("shutter [{t0}, {t1}] is not an interval"));

@@ -19,7 +19,7 @@ impl Scene {
         let mut text = String::new();
         let o = &mut text;
         if let Some(a) = self.accel_hint {
-            let _ = writeln!(o, "accel {a}");
+            let _ = writeln!(o, "accel {}", a as u32);
         }
         if let Some(s) = self.spp_hint {
             let _ = writeln!(o, "spp {s}");

@@ -10,7 +10,7 @@ use raylume_material::Phong;
 
 use super::lexer::{Lexer, Token, shown};
 use super::{Dialect, LoadOptions, Loaded, MAX_PIXELS, MAX_RESOLUTION, env_search_dirs};
-use crate::{Light, LightShape, Object, Scene, SceneError, Shape, Warning};
+use crate::{AccelHint, Light, LightShape, Object, Scene, SceneError, Shape, Warning};
 
 /// Every tag of every dialect.
 const TAGS: &[&str] = &[
@@ -51,7 +51,7 @@ struct SceneParts<'a> {
     lights: Vec<Light>,
     materials: Vec<Phong>,
     objects: Vec<Object>,
-    accel_hint: Option<u32>,
+    accel_hint: Option<AccelHint>,
     spp_hint: Option<u32>,
     shutter: Option<(f32, f32)>,
 }
@@ -488,13 +488,13 @@ impl<'a, 'f> Parser<'a, 'f> {
     }
 
     /// `accel N` (0 none, 1 grid, 2 BVH) or, in 2024/25, `accel none|grid|bvh`.
-    fn accel(&mut self) -> Result<u32, SceneError> {
+    fn accel(&mut self) -> Result<AccelHint, SceneError> {
         let t = self.lex.peek();
         if let Some(word) = t.filter(|t| !t.is_number()) {
             let hint = match word.text.to_ascii_lowercase().as_str() {
-                "none" => 0,
-                "grid" => 1,
-                "bvh" => 2,
+                "none" => AccelHint::None,
+                "grid" => AccelHint::Grid,
+                "bvh" => AccelHint::Bvh,
                 _ => {
                     return Err(self.error(
                         &word,
@@ -506,7 +506,7 @@ impl<'a, 'f> Parser<'a, 'f> {
             self.p3f2024 = true;
             return Ok(hint);
         }
-        Ok(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32)
+        Ok(AccelHint::ALL[self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as usize])
     }
 
     /// The camera: `v from …` (or 2024/25 `camera eye …`) and its keywords. They may come in any
