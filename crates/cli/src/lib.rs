@@ -62,7 +62,8 @@ struct RenderArgs {
     /// Output image: .png (8-bit), .exr or .pfm (linear float).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
-    /// Samples per pixel (1: the pixel centre; more: jittered n x n strata, n = ceil(sqrt(spp))).
+    /// Samples per pixel, 1..=65536 (1: the pixel centre; more with the jittered sampler: n x n
+    /// strata, n = ceil(sqrt(spp))); default: the scene's `spp`, else 1.
     #[arg(long)]
     spp: Option<u32>,
     /// Maximum ray depth, counting the camera ray as 1 (default: the profile's, 4 for plain, 8 for course).
@@ -112,7 +113,7 @@ struct RenderArgs {
     /// Fuzzy reflections: the roughness of every reflective material, in [0, 1].
     #[arg(long)]
     roughness: Option<f32>,
-    /// Depth of field: the lens diameter in pixel sizes (0: pinhole).
+    /// Depth of field: the lens radius, in pixel sizes of the view plane (0: pinhole).
     #[arg(long)]
     aperture: Option<f32>,
     /// Depth of field: the focal distance as a ratio of the view-plane distance.
@@ -128,8 +129,12 @@ struct RenderArgs {
     #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
     shutter: Option<Vec<f32>>,
     /// Render only the pixels in [X0, X1) x [Y0, Y1) (row 0 at the top); they equal the full image's.
+    /// The corners come in this order (pbrt's --pixelbounds takes X0 X1 Y0 Y1).
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     crop: Option<Vec<u32>>,
+    /// Print only warnings and errors: no progress bar, no summary.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(clap::Args)]
@@ -264,7 +269,8 @@ pub fn run() -> ExitCode {
 /// ```
 /// use raylume_cli::check_arguments;
 /// assert!(check_arguments(["render", "--spp", "16", "-o", "out.png"]).is_ok());
-/// assert_eq!(check_arguments(["render", "--spp", "4294967295"]).unwrap_err(), "spp 4294967295: expected 0..=65536");
+/// assert_eq!(check_arguments(["render", "--spp", "4294967295"]).unwrap_err(), "spp 4294967295: expected 1..=65536 samples per pixel");
+/// assert_eq!(check_arguments(["render", "--spp", "0"]).unwrap_err(), "spp 0: expected 1..=65536 samples per pixel");
 /// assert!(check_arguments(["render", "--threads", "10000"]).unwrap_err().starts_with("--threads 10000"));
 /// ```
 pub fn check_arguments<I, T>(args: I) -> Result<(), String>
@@ -381,7 +387,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     for w in &warnings {
         eprintln!("{w}");
     }
-    if let Some(summary) = summary {
+    if let Some(summary) = summary.filter(|_| !args.quiet) {
         eprintln!("raylume: {summary}");
     }
     // A cubemap the loader did not find was reported with its line: render with the background.
@@ -395,7 +401,8 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     render_options.settings.spp = spp;
     let settings = render_options.settings;
     let n = settings.strata();
-    if spp > 1 && n * n != spp {
+    let jittered = render_options.sampler == SamplerKind::Jittered;
+    if jittered && spp > 1 && n * n != spp && !args.quiet {
         eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
     }
     let features = scene.features(&render_options).map_err(bad_input)?;
@@ -406,7 +413,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         .map_err(|e| Failure { code: 1, message: e.to_string() })?;
     let h = render_options.resolution.map_or(scene.view.height, |r| r.1);
     let rows = settings.crop.map_or(h, |c| c[3].min(h).saturating_sub(c[1]));
-    let bar = if std::io::stderr().is_terminal() {
+    let bar = if std::io::stderr().is_terminal() && !args.quiet {
         let bar = ProgressBar::new(rows as u64);
         bar.set_style(
             ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
@@ -422,13 +429,16 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         eprintln!("{w}");
     }
     out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    if args.quiet {
+        return Ok(());
+    }
     let s = out.stats;
     let total = out.build_seconds + out.render_seconds;
     let (w, h) = (out.film.width(), out.film.height());
     eprintln!(
         "raylume: wrote {} ({w}x{h}, {} spp, effects: {features}, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
         args.output.display(),
-        n * n,
+        out.samples_per_pixel,
         out.accel,
         pool.current_num_threads(),
         total,

@@ -81,10 +81,11 @@ impl ImageFormat {
     ///
     /// ```
     /// use raylume_integrator::ImageFormat;
-    /// assert_eq!(ImageFormat::from_path("out.PFM".as_ref()).unwrap(), ImageFormat::Pfm);
-    /// assert!(ImageFormat::from_path("out.jpg".as_ref()).is_err());
+    /// assert_eq!(ImageFormat::from_path("out.PFM").unwrap(), ImageFormat::Pfm);
+    /// assert!(ImageFormat::from_path("out.jpg").is_err());
     /// ```
-    pub fn from_path(path: &Path) -> Result<Self, OutputError> {
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Self, OutputError> {
+        let path = path.as_ref();
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         match ext.as_str() {
             "png" => Ok(Self::Png),
@@ -190,7 +191,18 @@ impl Film {
     /// float). The data go to a temporary file beside `path` that is renamed over it at the end, so
     /// a failed or interrupted write never leaves a half-written image (see
     /// [`remove_partial_outputs`] for signals).
-    pub fn write(&self, path: &Path) -> Result<(), OutputError> {
+    ///
+    /// ```
+    /// use raylume_integrator::Film;
+    /// use raylume_geometry::Vec3;
+    /// let path = std::env::temp_dir().join(format!("raylume-film-doc-{}.pfm", std::process::id()));
+    /// let film = Film::from_pixels(2, 1, vec![Vec3::new(0.25, 0.5, 1.0), Vec3::ZERO]);
+    /// film.write(&path).unwrap();
+    /// assert_eq!(Film::read(&path).unwrap(), film);
+    /// # std::fs::remove_file(&path).unwrap();
+    /// ```
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<(), OutputError> {
+        let path = path.as_ref();
         let format = ImageFormat::from_path(path)?;
         if self.pixels.is_empty() {
             return Err(OutputError::Empty { path: path.to_owned(), width: self.width, height: self.height });
@@ -206,7 +218,8 @@ impl Film {
 
     /// Reads a linear image: PFM (either byte order), OpenEXR, or PNG (8-bit values as `v / 255`).
     /// Only regular files of at most [`MAX_IMAGE_PIXELS`] pixels are read.
-    pub fn read(path: &Path) -> Result<Film, InputError> {
+    pub fn read(path: impl AsRef<Path>) -> Result<Film, InputError> {
+        let path = path.as_ref();
         let fail = |message: String| InputError { path: path.to_owned(), message };
         let format = ImageFormat::from_path(path).map_err(|e| fail(e.to_string()))?;
         let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;

@@ -40,7 +40,7 @@ pub use film::{
     Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs, write_atomically,
 };
 pub use profile::Profile;
-pub use render::{MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, RayStats, RenderSettings, render};
+pub use render::{CancelToken, MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, Observer, RayStats, RenderSettings, render};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};
 

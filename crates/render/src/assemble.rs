@@ -5,8 +5,8 @@ use raylume_accel::{AccelKind, AccelVisitor, Accelerator, with_accelerator};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Centre, Film, Independent, Integrator, Jittered, Light, RayStats, RenderSettings, Sampler, Shading,
-    Sobol, SoftShadows, Whitted, World, render,
+    Background, Centre, Film, Independent, Integrator, Jittered, Light, Observer, RayStats, RenderSettings, Sampler,
+    Shading, Sobol, SoftShadows, Whitted, World, render,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
@@ -84,10 +84,19 @@ impl RenderScene for Scene {
                     }),
                     none,
                 ),
-                Shape::Mesh { vertices, triangles } => {
+                Shape::Mesh { vertices, triangles, normals } if normals.is_empty() => {
                     for t in triangles {
                         let [a, b, c] = t.map(|i| vertices[i as usize]);
                         push(Primitive::Triangle(Triangle::new(a, b, c)), none);
+                    }
+                }
+                Shape::Mesh { vertices, triangles, normals } => {
+                    for (t, n) in triangles.iter().zip(normals) {
+                        let [a, b, c] = t.map(|i| vertices[i as usize]);
+                        let index = out.vertex_normals.len() as u32;
+                        out.vertex_normals.push(n.map(|n| n.normalize_or_zero()));
+                        out.primitives.push(Primitive::Triangle(Triangle::new(a, b, c)));
+                        out.shading.push(Shading { material: o.material, normals: Some(index) });
                     }
                 }
             }
@@ -115,20 +124,17 @@ impl RenderScene for Scene {
         Ok(self.prepared(options)?.settings.spp)
     }
 
-    fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError> {
-        self.render_passes(options, on_row, None)
+    fn render<O: Observer + ?Sized>(&self, options: &RenderOptions, observer: &O) -> Result<RenderOutput, SceneError> {
+        self.render_passes(options, &Dyn(observer), None)
     }
 
-    fn render_progressive(
+    fn render_progressive<O: Observer + ?Sized>(
         &self,
         options: &RenderOptions,
-        passes: &[u32],
-        on_pass: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+        observer: &O,
+        mut on_pass: impl FnMut(&Progress) -> ControlFlow<(), u32>,
     ) -> Result<RenderOutput, SceneError> {
-        if passes.is_empty() || passes.iter().any(|&n| n == 0 || n > limits::MAX_SPP) {
-            return Err(SceneError::Invalid(format!("progressive passes need 1..={} samples each", limits::MAX_SPP)));
-        }
-        self.render_passes(options, &|| {}, Some((passes, on_pass)))
+        self.render_passes(options, &Dyn(observer), Some(&mut on_pass))
     }
 }
 
@@ -140,8 +146,8 @@ trait Steps {
     fn render_passes(
         &self,
         options: &RenderOptions,
-        on_row: &(dyn Fn() + Sync),
-        progressive: Option<(&[u32], OnPass)>,
+        observer: &dyn Observer,
+        progressive: Option<OnPass>,
     ) -> Result<RenderOutput, SceneError>;
 }
 
@@ -250,8 +256,8 @@ impl Steps for Scene {
     fn render_passes(
         &self,
         options: &RenderOptions,
-        on_row: &(dyn Fn() + Sync),
-        progressive: Option<(&[u32], OnPass)>,
+        observer: &dyn Observer,
+        progressive: Option<OnPass>,
     ) -> Result<RenderOutput, SceneError> {
         let prepared = self.prepared(options)?;
         let mut features = self.features_of(&prepared);
@@ -262,26 +268,37 @@ impl Steps for Scene {
         let Primitives { primitives, shading, vertex_normals } = self.primitives();
         let kind = self.accel_kind(options);
         let build = Instant::now();
-        let passes = [settings.spp];
-        let job = Job {
-            view: &view,
-            shutter,
-            features,
-            settings: &settings,
-            on_row,
-            sampler: options.sampler,
-            passes: progressive.as_ref().map_or(&passes[..], |p| p.0),
-        };
-        let mut ignore = |_: &Progress| ControlFlow::Continue(());
-        let on_pass: OnPass = match progressive {
-            Some(p) => p.1,
-            None => &mut ignore,
-        };
+        let job = Job { view: &view, shutter, features, settings: &settings, observer, sampler: options.sampler };
+        let mut once = |_: &Progress| ControlFlow::Break(());
+        let on_pass: OnPass = progressive.unwrap_or(&mut once);
         let parts = WorldParts { materials, shading, vertex_normals, lights, background };
         let visitor = RenderWith { parts, build, job: &job, on_pass };
-        let (film, stats, build_seconds, render_seconds) =
-            with_accelerator(kind, primitives, shutter, options.grid, visitor);
-        Ok(RenderOutput { film, stats, accel: kind, features, build_seconds, render_seconds, warnings })
+        let (rendered, build_seconds) = with_accelerator(kind, primitives, shutter, options.grid, visitor)?;
+        let Rendered { film, stats, seconds: render_seconds, samples_per_pixel } = rendered;
+        Ok(RenderOutput {
+            film,
+            stats,
+            accel: kind,
+            features,
+            samples_per_pixel,
+            build_seconds,
+            render_seconds,
+            warnings,
+        })
+    }
+}
+
+/// An observer of any size behind one `dyn Observer`, so the render loops are compiled once
+/// whatever the caller observes with.
+struct Dyn<'a, O: ?Sized>(&'a O);
+
+impl<O: Observer + ?Sized> Observer for Dyn<'_, O> {
+    fn row_done(&self) {
+        self.0.row_done()
+    }
+
+    fn cancelled(&self) -> bool {
+        self.0.cancelled()
     }
 }
 
@@ -303,15 +320,14 @@ struct RenderWith<'a, 'p> {
 }
 
 impl AccelVisitor for RenderWith<'_, '_> {
-    /// The image, the rays, and the seconds spent building and rendering.
-    type Output = (Film, RayStats, f64, f64);
+    /// What the passes made, and the seconds spent building the accelerator.
+    type Output = Result<(Rendered, f64), SceneError>;
 
     fn visit<A: Accelerator>(self, accel: A) -> Self::Output {
         let WorldParts { materials, shading, vertex_normals, lights, background } = self.parts;
         let world = World { accel, materials, shading, vertex_normals, lights, background };
         let build_seconds = self.build.elapsed().as_secs_f64();
-        let (film, stats, render_seconds) = self.job.with_camera(&world, self.on_pass);
-        (film, stats, build_seconds, render_seconds)
+        Ok((self.job.with_camera(&world, self.on_pass)?, build_seconds))
     }
 }
 
@@ -330,10 +346,8 @@ struct Job<'a> {
     shutter: Interval,
     features: Features,
     settings: &'a RenderSettings,
-    on_row: &'a (dyn Fn() + Sync),
+    observer: &'a dyn Observer,
     sampler: SamplerKind,
-    /// Samples per pixel of each pass (one pass for a plain render).
-    passes: &'a [u32],
 }
 
 /// What [`RenderScene::render_progressive`] hands out after each pass.
@@ -341,18 +355,19 @@ struct Job<'a> {
 pub struct Progress<'a> {
     /// The image so far: the sample-weighted mean of all passes.
     pub film: &'a Film,
-    /// Samples per pixel so far.
-    pub samples_per_pixel: u32,
+    /// Samples per pixel so far (what the samplers drew, after rounding).
+    pub samples_per_pixel: u64,
     /// Seconds spent rendering so far (building the accelerator excluded).
     pub seconds: f64,
     /// Index of the pass just finished.
     pub pass: usize,
 }
 
-type OnPass<'a> = &'a mut dyn FnMut(&Progress) -> ControlFlow<()>;
+/// After each pass: `Continue(n)` renders another pass of `n` samples per pixel, `Break` stops.
+type OnPass<'a> = &'a mut dyn FnMut(&Progress) -> ControlFlow<(), u32>;
 
 impl Job<'_> {
-    fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>, on_pass: OnPass) -> (Film, RayStats, f64) {
+    fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>, on_pass: OnPass) -> Result<Rendered, SceneError> {
         let open = self.shutter.min;
         match (self.features.depth_of_field, self.features.motion_blur) {
             (false, false) => self.with_sampler(world, &Pinhole::new(self.view).at_time(open), on_pass),
@@ -367,7 +382,7 @@ impl Job<'_> {
         world: &World<A, Phong>,
         camera: &C,
         on_pass: OnPass,
-    ) -> (Film, RayStats, f64) {
+    ) -> Result<Rendered, SceneError> {
         let s = self.settings;
         let strata = |spp: u32| RenderSettings { spp, ..*s }.strata();
         let stratified = Whitted::<{ SoftShadows::STRATIFIED }>::with_soft_shadows(s);
@@ -395,7 +410,8 @@ impl Job<'_> {
         }
     }
 
-    /// Renders every pass with its own seed and accumulates them, weighted by samples.
+    /// Renders passes, each with its own seed, and accumulates them weighted by samples, until
+    /// `on_pass` says stop or the observer cancels.
     fn go<A: Accelerator, C: Camera, S: Sampler, I: Integrator>(
         &self,
         world: &World<A, Phong>,
@@ -403,10 +419,11 @@ impl Job<'_> {
         make_sampler: impl Fn(u64, u32) -> S,
         integrator: &I,
         on_pass: OnPass,
-    ) -> (Film, RayStats, f64) {
+    ) -> Result<Rendered, SceneError> {
         let start = Instant::now();
-        let (mut acc, mut total, mut stats) = (None::<Film>, 0u32, RayStats::default());
-        for (pass, &spp) in self.passes.iter().enumerate() {
+        let (mut acc, mut total, mut stats) = (None::<Film>, 0u64, RayStats::default());
+        let mut spp = self.settings.spp;
+        for pass in 0usize.. {
             // Pass 0 keeps the seed, so a one-pass render is the plain render.
             let seed = if pass == 0 {
                 self.settings.seed
@@ -415,8 +432,11 @@ impl Job<'_> {
             };
             let settings = RenderSettings { spp, seed, ..*self.settings };
             let sampler = make_sampler(seed, spp);
-            let n = sampler.samples_per_pixel();
-            let (film, s) = render(world, camera, &sampler, integrator, &settings, self.on_row);
+            let n = sampler.samples_per_pixel() as u64;
+            let (film, s) = render(world, camera, &sampler, integrator, &settings, self.observer);
+            if self.observer.cancelled() {
+                return Err(SceneError::Cancelled);
+            }
             stats += s;
             acc = Some(match acc {
                 None => film,
@@ -429,11 +449,26 @@ impl Job<'_> {
             total += n;
             let film = acc.as_ref().expect("a pass was rendered");
             let progress = Progress { film, samples_per_pixel: total, seconds: start.elapsed().as_secs_f64(), pass };
-            if on_pass(&progress).is_break() {
-                break;
+            match on_pass(&progress) {
+                ControlFlow::Break(()) => break,
+                ControlFlow::Continue(next) if (1..=limits::MAX_SPP).contains(&next) => spp = next,
+                ControlFlow::Continue(next) => {
+                    return Err(SceneError::Invalid(format!(
+                        "progressive pass of {next} samples per pixel: expected 1..={}",
+                        limits::MAX_SPP
+                    )));
+                }
             }
         }
-        let film = acc.unwrap_or_else(|| Film::from_pixels(0, 0, Vec::new()));
-        (film, stats, start.elapsed().as_secs_f64())
+        let film = acc.expect("the loop renders a pass before it stops");
+        Ok(Rendered { film, stats, seconds: start.elapsed().as_secs_f64(), samples_per_pixel: total })
     }
+}
+
+/// What the passes of a render made.
+struct Rendered {
+    film: Film,
+    stats: RayStats,
+    seconds: f64,
+    samples_per_pixel: u64,
 }

@@ -32,6 +32,7 @@ mod options;
 pub use assemble::{Primitives, Progress};
 pub use env::load_cubemap;
 pub use options::{Features, RenderOptions, RenderOutput, SamplerKind};
+pub use raylume_integrator::{CancelToken, Observer};
 
 /// Rendering a [`Scene`](raylume_scene::Scene): the methods are [`Scene`](raylume_scene::Scene)'s once the trait is in scope (it is in
 /// `raylume::prelude`).
@@ -53,36 +54,58 @@ pub trait RenderScene {
     /// The samples per pixel a render with `options` takes (before the sampler rounds them).
     fn samples_per_pixel(&self, options: &RenderOptions) -> Result<u32, SceneError>;
 
-    /// Renders the scene. `on_row` is called once per finished image row.
+    /// Renders the scene. `observer` hears of each finished row and can cancel the render
+    /// ([`Observer`]): `&()` for neither, `&|| bar.inc(1)` for a progress bar, a [`CancelToken`]
+    /// to stop it from another thread (the render then returns [`SceneError::Cancelled`]).
     ///
-    /// The effects the scene and options use ([`RenderScene::features`]) choose one of a small set of
-    /// monomorphised render loops (camera, sampler and soft-shadow mode are type parameters), so
-    /// the work of an unused effect is absent from the loop rather than skipped per ray.
-    fn render(&self, options: &RenderOptions, on_row: &(dyn Fn() + Sync)) -> Result<RenderOutput, SceneError>;
+    /// With [`RenderOptions::default()`] a scene renders as the CLI renders it without flags: with
+    /// its own `spp`, accelerator hint and cubemap. The effects the scene and options use
+    /// ([`RenderScene::features`]) choose one of a small set of monomorphised render loops
+    /// (accelerator, camera, sampler and soft-shadow mode are type parameters), so the work of an
+    /// unused effect is absent from the loop rather than skipped per ray.
+    ///
+    /// ```
+    /// use raylume_render::{CancelToken, RenderOptions, RenderScene};
+    /// use raylume_scene::{p3f, DEFAULT_SCENE};
+    /// let scene = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
+    /// let small = RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() };
+    /// let out = scene.render(&small, &()).unwrap();
+    /// assert_eq!(out.samples_per_pixel, 16); // the scene's `spp 16`
+    ///
+    /// let cancel = CancelToken::new();
+    /// cancel.cancel();
+    /// assert!(matches!(scene.render(&small, &cancel), Err(raylume_scene::SceneError::Cancelled)));
+    /// ```
+    fn render<O: Observer + ?Sized>(&self, options: &RenderOptions, observer: &O) -> Result<RenderOutput, SceneError>;
 
-    /// Renders progressively: one pass per entry of `passes` (samples per pixel), each with its own
-    /// seed, accumulated into one image weighted by samples. After each pass `on_pass` gets the image so
-    /// far and the time spent; it returns [`ControlFlow::Break`] to stop there (a time budget). The
-    /// passes always sample the pixel area (antialiasing on), so every pass estimates the same image.
+    /// Renders progressively, for as long as `on_pass` asks: a first pass of the samples per pixel
+    /// [`RenderScene::samples_per_pixel`] gives, then after each pass `on_pass` gets the image so far
+    /// (the sample-weighted mean of the passes, each with its own seed) and the time spent, and
+    /// returns [`ControlFlow::Continue`] with the samples of the next pass, or
+    /// [`ControlFlow::Break`] to stop there (a time budget, a target quality). The passes always
+    /// sample the pixel area (antialiasing on), so every pass estimates the same image. `observer`
+    /// works as in [`RenderScene::render`], within passes.
     ///
     /// ```
     /// use std::ops::ControlFlow;
     /// use raylume_render::{RenderOptions, RenderScene};
     /// use raylume_scene::{p3f, DEFAULT_SCENE};
     /// let scene = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
-    /// let options = RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() };
+    /// let options = RenderOptions { resolution: Some((16, 10)), spp: Some(1), ..RenderOptions::default() };
     /// let mut seen = Vec::new();
-    /// let out = scene.render_progressive(&options, &[1, 3, 4, 8], &mut |p| {
+    /// let out = scene.render_progressive(&options, &(), |p| {
     ///     seen.push(p.samples_per_pixel);
-    ///     if p.samples_per_pixel >= 8 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+    ///     // Passes of 1, 3 and 8 samples: 3 and 8 round up to 4 and 9 jittered samples.
+    ///     if p.samples_per_pixel >= 10 { ControlFlow::Break(()) } else { ControlFlow::Continue([3, 8][p.pass]) }
     /// }).unwrap();
-    /// assert_eq!(seen, [1, 5, 9]); // 3 and 8 round up to 4 and 9 jittered samples
+    /// assert_eq!(seen, [1, 5, 14]);
+    /// assert_eq!(out.samples_per_pixel, 14);
     /// assert_eq!(out.film.width(), 16);
     /// ```
-    fn render_progressive(
+    fn render_progressive<O: Observer + ?Sized>(
         &self,
         options: &RenderOptions,
-        passes: &[u32],
-        on_pass: &mut dyn FnMut(&Progress) -> ControlFlow<()>,
+        observer: &O,
+        on_pass: impl FnMut(&Progress) -> ControlFlow<(), u32>,
     ) -> Result<RenderOutput, SceneError>;
 }

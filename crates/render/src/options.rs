@@ -15,8 +15,8 @@ pub struct RenderOptions {
     /// Depth, seed, Fresnel mode, light grid, crop; its `spp` is used only for a scene without
     /// `spp` when [`RenderOptions::spp`] is `None`.
     pub settings: RenderSettings,
-    /// Samples per pixel; `None` takes the scene's `spp` (0 meaning one sample at the pixel
-    /// centre), else `settings.spp`.
+    /// Samples per pixel, 1 (the pixel centre) to [`limits::MAX_SPP`]; `None` takes the scene's
+    /// `spp` (its 0 meaning one sample at the pixel centre), else `settings.spp`.
     pub spp: Option<u32>,
     /// Make what would be a warning (a missing cubemap) an error.
     pub strict: bool,
@@ -35,7 +35,8 @@ pub struct RenderOptions {
     pub area_light_size: Option<f32>,
     /// Overrides every reflective material's roughness.
     pub roughness: Option<f32>,
-    /// Overrides the camera's aperture (p3f units: multiples of the pixel size).
+    /// Overrides the camera's aperture: the lens radius, in pixel sizes of the view plane
+    /// ([`View::aperture`](raylume_camera::View::aperture)).
     pub aperture: Option<f32>,
     /// Overrides the camera's focal distance (a ratio of the view-plane distance).
     pub focal: Option<f32>,
@@ -86,8 +87,8 @@ impl RenderOptions {
                 ));
             }
         }
-        if let Some(spp) = self.spp.filter(|&n| n > limits::MAX_SPP) {
-            return invalid(format!("spp {spp}: expected 0..={}", limits::MAX_SPP));
+        if let Some(spp) = self.spp.filter(|&n| n == 0 || n > limits::MAX_SPP) {
+            return invalid(format!("spp {spp}: expected 1..={} samples per pixel", limits::MAX_SPP));
         }
         let check = |name: &str, v: Option<f32>, range: &str, ok: fn(f32) -> bool| match v {
             Some(x) if !x.is_finite() || !ok(x) => invalid(format!("{name} {x}: expected {range}")),
@@ -175,6 +176,9 @@ pub struct RenderOutput {
     pub accel: AccelKind,
     /// The effects the render used.
     pub features: Features,
+    /// Samples each pixel got: what the sampler drew (a jittered sampler rounds up to a square),
+    /// summed over the passes of a progressive render.
+    pub samples_per_pixel: u64,
     /// Seconds spent building the accelerator.
     pub build_seconds: f64,
     /// Seconds spent tracing.

@@ -165,12 +165,15 @@ pub enum Shape {
         /// Apex radius.
         apex_radius: f32,
     },
-    /// `mesh`: a triangle mesh with 0-based indices.
+    /// `mesh` (or `obj`): a triangle mesh with 0-based indices.
     Mesh {
         /// Vertex positions.
         vertices: Vec<Vec3A>,
         /// Triangles as vertex indices.
         triangles: Vec<[u32; 3]>,
+        /// The shading normals at each triangle's three corners (an OBJ file's `vn`), for smooth
+        /// shading; empty for a mesh shaded with its faces' normals.
+        normals: Vec<[Vec3A; 3]>,
     },
 }
 
@@ -343,9 +346,15 @@ fn shape_problem(shape: &Shape) -> Option<String> {
                 && base != apex))
                 .then(|| "cone: expected finite, distinct ends and radii >= 0, not both 0".to_owned())
         }
-        Shape::Mesh { vertices, triangles } => {
+        Shape::Mesh { vertices, triangles, normals } => {
             if let Some(k) = vertices.iter().position(|&p| !finite(p)) {
                 return Some(format!("mesh: vertex {k} is not finite"));
+            }
+            if !normals.is_empty() && normals.len() != triangles.len() {
+                return Some(format!("mesh: {} normal triples for {} triangles", normals.len(), triangles.len()));
+            }
+            if let Some(t) = normals.iter().position(|n| !n.iter().all(|&n| finite(n))) {
+                return Some(format!("mesh: a normal of triangle {t} is not finite"));
             }
             let n = vertices.len();
             triangles.iter().enumerate().find_map(|(t, tri)| {

@@ -136,7 +136,7 @@ fn p3f_of_2021_with_accel_spp_and_a_mesh() {
     assert!(l.warnings.is_empty());
     let s = &l.scene;
     assert_eq!((s.accel_hint, s.spp_hint), (Some(AccelHint::Grid), Some(4)));
-    let Shape::Mesh { vertices, triangles } = &s.objects[0].shape else { panic!("a mesh") };
+    let Shape::Mesh { vertices, triangles, .. } = &s.objects[0].shape else { panic!("a mesh") };
     assert_eq!(vertices.len(), 5);
     assert_eq!(triangles, &[[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], "-1 is the last vertex");
     // The library takes the scene's spp and accelerator unless told otherwise.

@@ -55,7 +55,10 @@ fn a_deep_ray_tree_is_refused_and_the_deepest_allowed_fits_a_default_stack() {
 fn samples_resolution_and_crops_beyond_the_limits_are_refused() {
     let scene = lit().sphere(Vec3A::ZERO, 1.0).build().unwrap();
     let e = |o: RenderOptions| scene.render(&o, &|| {}).unwrap_err().to_string();
-    assert_eq!(e(RenderOptions { spp: Some(u32::MAX), ..Default::default() }), "spp 4294967295: expected 0..=65536");
+    assert_eq!(
+        e(RenderOptions { spp: Some(u32::MAX), ..Default::default() }),
+        "spp 4294967295: expected 1..=65536 samples per pixel"
+    );
     assert!(e(RenderOptions { resolution: Some((100_000, 100_000)), ..Default::default() }).starts_with("resolution"));
     let crop =
         |c| RenderOptions { settings: RenderSettings { crop: Some(c), ..Default::default() }, ..Default::default() };

@@ -224,7 +224,7 @@ fn dragon_has_its_hundred_thousand_triangles() {
     let scene = load(shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap().scene;
     println!("dragon.p3f loaded in {:.3} s", start.elapsed().as_secs_f64());
     let mesh = scene.objects.iter().find_map(|o| match &o.shape {
-        Shape::Mesh { vertices, triangles } => Some((vertices.len(), triangles.len())),
+        Shape::Mesh { vertices, triangles, .. } => Some((vertices.len(), triangles.len())),
         _ => None,
     });
     assert_eq!(mesh, Some((50_000, 100_000)));

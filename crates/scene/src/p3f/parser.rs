@@ -619,19 +619,12 @@ impl<'a, 'f> Parser<'a, 'f> {
         let name = self.token("an OBJ file name")?;
         let path = self.options.base_dir.as_deref().unwrap_or(Path::new(".")).join(name.text);
         let shape = crate::obj::load(&path).map_err(|e| self.error(&name, format!("obj '{}': {e}", name.shown())))?;
-        let (mut scale, mut offset) = (1.0, Vec3A::ZERO);
+        let mut place = crate::obj::Transform::default();
         if self.lex.peek().is_some_and(|t| t.is_number()) {
-            scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
-            offset = self.vec3("obj translation")?;
+            place.scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
+            place.translate = self.vec3("obj translation")?;
         }
-        let Shape::Mesh { vertices, triangles } = shape else { return Ok(shape) };
-        let vertices: Vec<Vec3A> = vertices.into_iter().map(|v| v * scale + offset).collect();
-        if vertices.iter().any(|v| !v.is_finite()) {
-            return Err(
-                self.error(&name, "expected an obj scale and translation that keep its vertices finite".to_owned())
-            );
-        }
-        Ok(Shape::Mesh { vertices, triangles })
+        place.apply(shape).map_err(|e| self.error(&name, e.to_string()))
     }
 
     fn mesh(&mut self) -> Result<Shape, SceneError> {
@@ -671,7 +664,7 @@ impl<'a, 'f> Parser<'a, 'f> {
             }
             triangles.push(tri);
         }
-        Ok(Shape::Mesh { vertices, triangles })
+        Ok(Shape::Mesh { vertices, triangles, normals: Vec::new() })
     }
 }
 
