@@ -78,15 +78,15 @@ impl<const SOFT: u8> Whitted<SOFT> {
             (!world.accel.occluded(&Ray::with_time(above, wi, time), dist)).then_some(wi)
         };
         if SOFT == SoftShadows::NONE || !light.is_area() {
-            return match unoccluded(light.position, stats) {
+            return match unoccluded(light.centre(), stats) {
                 Some(wi) => light.color * material.local(ns, wo, wi),
                 None => Vec3::ZERO,
             };
         }
-        let [e0, e1] = light.edges;
-        let corner = light.position - (e0 + e1) * 0.5;
+        let [e0, e1] = light.edges();
+        let corner = light.centre() - (e0 + e1) * 0.5;
         if SOFT == SoftShadows::GRID {
-            let g = if light.grid > 0 { light.grid } else { self.grid };
+            let g = if light.grid() > 0 { light.grid() } else { self.grid };
             let mut sum = Vec3::ZERO;
             for i in 0..g {
                 for j in 0..g {

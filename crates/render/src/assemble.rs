@@ -11,7 +11,7 @@ use raylume_integrator::{
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
-use raylume_scene::{AccelHint, LightShape, Scene, SceneError, Shape, Warning};
+use raylume_scene::{AccelHint, Scene, SceneError, Shape, Warning};
 
 use crate::{Features, RenderOptions, RenderOutput, RenderScene, SamplerKind, limits, load_cubemap};
 
@@ -164,18 +164,11 @@ impl Steps for Scene {
         }
         view.aperture = options.aperture.unwrap_or(view.aperture);
         view.focal = options.focal.unwrap_or(view.focal);
-        let lights = self
-            .lights
-            .iter()
-            .map(|l| match (options.area_light_size, l.shape) {
-                (Some(size), _) | (None, LightShape::Square(size)) => Light::square(l.position, l.color, size),
-                (None, LightShape::Point) => Light::point(l.position, l.color),
-                (None, LightShape::Parallelogram { ends, grid }) => {
-                    let edges = ends.map(|e| e - l.position);
-                    Light { position: l.position + (edges[0] + edges[1]) * 0.5, color: l.color, edges, grid }
-                }
-            })
-            .collect();
+        let lights = match options.area_light_size {
+            // Every light becomes a square of this side centred on its position.
+            Some(size) => self.lights.iter().map(|l| Light::square(l.position, l.color, size)).collect(),
+            None => self.lights.clone(),
+        };
         let materials = self
             .materials
             .iter()

@@ -38,8 +38,9 @@ mod writer;
 pub use builder::SceneBuilder;
 pub use cubemap::{CUBEMAP_FACES, cubemap_faces, find_cubemap};
 pub use error::{SceneError, Warning};
-pub use model::{AccelHint, Light, LightShape, Object, Scene, Shape};
+pub use model::{AccelHint, Object, Scene, Shape};
 pub use polygon::triangulate;
+pub use raylume_material::{Light, LightShape};
 
 /// The embedded default scene (p3f text), rendered when the CLI is given no scene.
 pub const DEFAULT_SCENE: &str = include_str!("default.p3f");

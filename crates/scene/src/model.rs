@@ -1,6 +1,6 @@
 use raylume_camera::View;
 use raylume_geometry::{Vec3, Vec3A};
-use raylume_material::Phong;
+use raylume_material::{Light, LightShape, Phong};
 
 /// A scene as the p3f format describes it: camera, background, lights, materials and objects.
 ///
@@ -53,60 +53,6 @@ pub enum AccelHint {
 impl AccelHint {
     /// The hints in the order of their p3f numbers.
     pub const ALL: [AccelHint; 3] = [AccelHint::None, AccelHint::Grid, AccelHint::Bvh];
-}
-
-/// A light: a point, or an area light whose [`LightShape`] starts at `position`.
-///
-/// ```
-/// use raylume_scene::{Light, LightShape};
-/// use raylume_geometry::{Vec3, Vec3A};
-/// let lamp = Light::point(Vec3A::new(0.0, 5.0, 0.0), Vec3::ONE);
-/// assert_eq!(lamp.shape, LightShape::Point);
-/// assert!(!lamp.is_area());
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Light {
-    /// Position: the point light, the centre of a square, the corner of a parallelogram.
-    pub position: Vec3A,
-    /// Colour.
-    pub color: Vec3,
-    /// What emits: a point or an area.
-    pub shape: LightShape,
-}
-
-/// The emitting shape of a [`Light`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum LightShape {
-    /// A point at the light's position (p3f `l x y z r g b`, `light punctual`).
-    Point,
-    /// The course's square area light: this side, in the world XY plane, centred on the light's
-    /// position (raylume's `l x y z r g b size`).
-    Square(f32),
-    /// A parallelogram with one corner at the light's position and its two edges ending at these
-    /// points (p3f 2024/25 `light quad`, student `al`).
-    Parallelogram {
-        /// The ends of the two edges that leave the corner.
-        ends: [Vec3A; 2],
-        /// Side of the grid of point lights that stands for it without antialiasing (0: the
-        /// render's light grid).
-        grid: u32,
-    },
-}
-
-impl Light {
-    /// A point light.
-    pub fn point(position: Vec3A, color: Vec3) -> Self {
-        Self { position, color, shape: LightShape::Point }
-    }
-
-    /// Whether the light has an area (soft shadows).
-    pub fn is_area(&self) -> bool {
-        match self.shape {
-            LightShape::Point => false,
-            LightShape::Square(size) => size > 0.0,
-            LightShape::Parallelogram { ends, .. } => ends.iter().any(|&e| e != self.position),
-        }
-    }
 }
 
 /// An object: a shape and the index of its material in [`Scene::materials`].
