@@ -269,8 +269,9 @@ pub fn run() -> ExitCode {
 /// ```
 /// use raylume_cli::check_arguments;
 /// assert!(check_arguments(["render", "--spp", "16", "-o", "out.png"]).is_ok());
-/// assert_eq!(check_arguments(["render", "--spp", "4294967295"]).unwrap_err(), "spp 4294967295: expected 1..=65536 samples per pixel");
-/// assert_eq!(check_arguments(["render", "--spp", "0"]).unwrap_err(), "spp 0: expected 1..=65536 samples per pixel");
+/// let refused = |spp| check_arguments(["render", "--spp", spp]).unwrap_err();
+/// assert_eq!(refused("4294967295"), "spp 4294967295: expected 1..=65536 samples per pixel");
+/// assert_eq!(refused("0"), "spp 0: expected 1..=65536 samples per pixel");
 /// assert!(check_arguments(["render", "--threads", "10000"]).unwrap_err().starts_with("--threads 10000"));
 /// ```
 pub fn check_arguments<I, T>(args: I) -> Result<(), String>

@@ -121,8 +121,8 @@ pub fn remove_partial_outputs() -> std::sync::MutexGuard<'static, Vec<PathBuf>> 
 /// let wrote = raylume_integrator::write_atomically(&path, |tmp| std::fs::write(tmp, "done"), |e| e);
 /// assert!(wrote.is_ok());
 /// assert_eq!(std::fs::read_to_string(&path).unwrap(), "done");
-/// let failed: Result<(), String> = raylume_integrator::write_atomically(&path, |_| Err("no".into()), |e| e.to_string());
-/// assert!(failed.is_err());
+/// let refuse = |_: &std::path::Path| Err("no".to_owned());
+/// assert!(raylume_integrator::write_atomically(&path, refuse, |e| e.to_string()).is_err());
 /// assert_eq!(std::fs::read_to_string(&path).unwrap(), "done", "the previous file is left");
 /// # std::fs::remove_file(&path).unwrap();
 /// ```

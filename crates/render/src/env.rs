@@ -1,4 +1,4 @@
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use raylume_geometry::Vec3;
 use raylume_integrator::{Cubemap, CubemapFace};
@@ -12,7 +12,7 @@ use raylume_scene::{SceneError, cubemap_faces};
 /// let err = raylume_render::load_cubemap("no such cubemap", &[std::env::temp_dir()]).unwrap_err();
 /// assert!(err.to_string().starts_with("environment map 'no such cubemap': no folder"));
 /// ```
-pub fn load_cubemap(name: &str, search_dirs: &[PathBuf]) -> Result<Cubemap, SceneError> {
+pub fn load_cubemap(name: &str, search_dirs: &[impl AsRef<Path>]) -> Result<Cubemap, SceneError> {
     let err = |message: String| SceneError::Environment { name: name.to_owned(), message };
     let (_, paths) = cubemap_faces(name, search_dirs).map_err(err)?;
     let mut faces = Vec::with_capacity(6);

@@ -1,12 +1,12 @@
-//! Render assembly for raylume: turns a [`Scene`](raylume_scene::Scene) description into what the render loop needs (the
+//! Render assembly for raylume: turns a [`Scene`] description into what the render loop needs (the
 //! primitives behind an accelerator, the camera, the sampler, the integrator, the cubemap decoded
-//! from its images) and runs it. [`RenderScene`] adds the rendering methods to [`Scene`](raylume_scene::Scene).
+//! from its images) and runs it. [`RenderScene`] adds the rendering methods to [`Scene`].
 //!
 //! The crates form a graph that only points down: `raylume-geometry` at the bottom; `intersect`,
-//! `camera` and `material` on it; `accel` on `intersect`; `integrator` (the render loop, the film
-//! and image files) on those; `raylume-scene` (the description: model, loaders, writer, builder)
-//! on `geometry`, `camera` and `material` only; and this crate on both `integrator` and `scene`,
-//! the one place where a description meets the machinery. Image decoding stays at or above the
+//! `camera` and `material` (materials and lights) on it; `accel` on `intersect`; `integrator`
+//! (the render loop, the film and image files) on those; `raylume-scene` (the description: model,
+//! loaders, writer, builder) on `geometry`, `camera` and `material` only; and this crate on both
+//! `integrator` and `scene`, the one place where a description meets the machinery. Image decoding stays at or above the
 //! integrator: the cubemap's faces are decoded here, not in the scene crate, so reading a p3f
 //! file builds no image codec, accelerator or render loop.
 //!
@@ -18,6 +18,8 @@
 //! let out = scene.render(&options, &|| {}).unwrap();
 //! assert_eq!((out.film.width(), out.film.height()), (32, 20));
 //! ```
+//!
+//! [`Scene`]: raylume_scene::Scene
 
 use std::ops::ControlFlow;
 
@@ -34,8 +36,10 @@ pub use env::load_cubemap;
 pub use options::{Features, RenderOptions, RenderOutput, SamplerKind};
 pub use raylume_integrator::{CancelToken, Observer};
 
-/// Rendering a [`Scene`](raylume_scene::Scene): the methods are [`Scene`](raylume_scene::Scene)'s once the trait is in scope (it is in
+/// Rendering a [`Scene`]: the methods are [`Scene`]'s once the trait is in scope (it is in
 /// `raylume::prelude`).
+///
+/// [`Scene`]: raylume_scene::Scene
 pub trait RenderScene {
     /// The primitives the scene's objects make (polygons as triangle fans, meshes as triangles).
     fn primitives(&self) -> Primitives;
@@ -43,9 +47,10 @@ pub trait RenderScene {
     /// The accelerator `options` ask for, else the scene's hint, else the BVH.
     fn accel_kind(&self, options: &RenderOptions) -> AccelKind;
 
-    /// Checks that rendering with `options` can start: the scene ([`Scene::validate`](raylume_scene::Scene::validate)), the
-    /// settings and overrides against the [`limits`], the crop inside the image, and the memory the
-    /// render would take. [`RenderScene::render`] does the same before any work.
+    /// Checks that rendering with `options` can start: the scene
+    /// ([`Scene::validate`](raylume_scene::Scene::validate)), the settings and overrides against the
+    /// [`limits`], the crop inside the image, and the memory the render would take.
+    /// [`RenderScene::render`] does the same before any work.
     fn check(&self, options: &RenderOptions) -> Result<(), SceneError>;
 
     /// What rendering with `options` uses.

@@ -146,7 +146,8 @@ impl Scene {
     ///
     /// ```
     /// use std::path::PathBuf;
-    /// let mut scene = raylume_scene::p3f::parse(raylume_scene::DEFAULT_SCENE, "d", &Default::default()).unwrap().scene;
+    /// use raylume_scene::{DEFAULT_SCENE, p3f};
+    /// let mut scene = p3f::parse(DEFAULT_SCENE, "d", &Default::default()).unwrap().scene;
     /// scene.base_dir = Some(PathBuf::from("scenes"));
     /// let dirs = scene.cubemap_dirs(&[PathBuf::from("maps")]);
     /// assert_eq!(dirs, [PathBuf::from("scenes"), PathBuf::from("scenes/.."), PathBuf::from("maps")]);
