@@ -22,9 +22,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .sphere(Vec3A::new(0.0, 1.0, 0.0), 1.0)
         .build()?;
     let options = RenderOptions { spp: Some(4), ..RenderOptions::default() };
-    let out = scene.render(&options, &|| {})?;
+    let out = scene.render(&options, &())?;
     let path = std::env::args().nth(1).unwrap_or_else(|| "embed.png".to_owned());
-    out.film.write(std::path::Path::new(&path))?;
+    out.film.write(&path)?;
     println!("wrote {path}: {} rays in {:.3} s", out.stats.total(), out.render_seconds);
     Ok(())
 }

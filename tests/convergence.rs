@@ -2,7 +2,7 @@
 
 use raylume::metrics::{log_log_slope, mae, mse, psnr, rel_mse, rmse};
 use raylume::prelude::*;
-use raylume::scene::SamplerKind;
+use raylume::render::SamplerKind;
 
 #[test]
 fn metrics_on_hand_computed_images() {
@@ -51,12 +51,12 @@ fn jittered_converges_faster_than_independent_on_a_blurred_edge() {
     };
     let render = |spp: u32, seed: u64, sampler: SamplerKind| {
         let options = RenderOptions {
-            settings: RenderSettings { spp, seed, ..Default::default() },
+            settings: RenderSettings { seed, ..Default::default() },
+            spp: Some(spp),
             sampler,
             ..Default::default()
         };
-        let mut once = |_: &raylume::scene::Progress| std::ops::ControlFlow::Continue(());
-        scene.render_progressive(&options, &[spp], &mut once).unwrap().film.channels()
+        scene.render_progressive(&options, &(), |_| std::ops::ControlFlow::Break(())).unwrap().film.channels()
     };
     let reference = render(4096, 99, SamplerKind::Jittered);
     let spps = [4u32, 16, 64, 256];

@@ -22,6 +22,28 @@ impl Default for GridParams {
     }
 }
 
+impl GridParams {
+    /// Largest density accepted by [`GridParams::validate`] (cells per primitive).
+    pub const MAX_K: f32 = 1000.0;
+
+    /// Checks the density: a finite number in `(0, MAX_K]`; the message names the value.
+    ///
+    /// ```
+    /// use raylume_accel::GridParams;
+    /// assert!(GridParams::default().validate().is_ok());
+    /// let nan = GridParams { k: f32::NAN, mailbox: true };
+    /// assert_eq!(nan.validate().unwrap_err(), "grid density NaN: expected a number in (0, 1000]");
+    /// ```
+    pub fn validate(&self) -> Result<(), String> {
+        let k = self.k;
+        if k.is_finite() && k > 0.0 && k <= Self::MAX_K {
+            Ok(())
+        } else {
+            Err(format!("grid density {k}: expected a number in (0, {}]", Self::MAX_K))
+        }
+    }
+}
+
 /// Largest number of cells per axis.
 const MAX_CELLS_PER_AXIS: usize = 512;
 /// Largest number of cells in all.

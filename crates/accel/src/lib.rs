@@ -19,10 +19,12 @@
 
 mod brute;
 mod bvh;
+mod factory;
 mod grid;
 
 pub use brute::BruteForce;
 pub use bvh::{Bvh, BvhBuild, BvhKernel};
+pub use factory::{AccelVisitor, with_accelerator};
 pub use grid::{Grid, GridParams};
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Hit;

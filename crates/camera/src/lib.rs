@@ -75,7 +75,9 @@ pub struct View {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Lens diameter as a multiple of the pixel size on the view plane (0 = pinhole).
+    /// Lens radius as a multiple of the pixel size on the view plane (0 = pinhole): the thin lens's
+    /// radius is `aperture * w / W` (p3f's camera formula; its tag table calls the number a
+    /// diameter, the formula uses it as the radius).
     pub aperture: f32,
     /// Focal distance as a ratio of the view-plane distance `|from - at|`.
     pub focal: f32,

@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, Accelerator, BruteForce, Bvh, BvhBuild, BvhKernel, Counts, Grid, GridParams};
+use raylume_accel::{AccelKind, AccelVisitor, Accelerator, Counts, GridParams, with_accelerator};
 use raylume_geometry::{Interval, Ray};
+use raylume_render::RenderScene;
 use raylume_scene::{Scene, rays};
 use rayon::prelude::*;
 
@@ -45,17 +46,25 @@ pub fn run(args: BenchArgs) -> Result<(), Failure> {
     let prims = args.scene.primitives().primitives;
     let n = prims.len();
     let shutter = args.scene.shutter();
+    if let (AccelKind::Bvh | AccelKind::BvhPortable, Some(kernel)) = (args.accel, args.accel.kernel()) {
+        println!("kernel              {kernel:?}");
+    }
     let start = Instant::now();
-    match args.accel {
-        AccelKind::None => measure(&args, BruteForce::new(prims), start, n),
-        AccelKind::Bvh | AccelKind::BvhPortable => {
-            let kernel = if args.accel == AccelKind::Bvh { BvhKernel::best() } else { BvhKernel::Portable };
-            let bvh = Bvh::with_kernel(prims, shutter, BvhBuild::Sah, kernel);
-            println!("kernel              {:?}", bvh.kernel());
-            measure(&args, bvh, start, n)
-        }
-        AccelKind::BvhMidpoint => measure(&args, Bvh::with_build(prims, shutter, BvhBuild::Midpoint), start, n),
-        AccelKind::Grid => measure(&args, Grid::new(prims, shutter, args.grid), start, n),
+    with_accelerator(args.accel, prims, shutter, args.grid, Measure { args: &args, start, n })
+}
+
+/// Measures the accelerator it is handed.
+struct Measure<'a> {
+    args: &'a BenchArgs,
+    start: Instant,
+    n: usize,
+}
+
+impl AccelVisitor for Measure<'_> {
+    type Output = Result<(), Failure>;
+
+    fn visit<A: Accelerator>(self, accel: A) -> Self::Output {
+        measure(self.args, accel, self.start, self.n)
     }
 }
 
@@ -164,21 +173,16 @@ fn measure<A: Accelerator>(args: &BenchArgs, accel: A, start: Instant, n: usize)
     Ok(())
 }
 
+/// Writes a ray or hit file through a temporary file ([`raylume_integrator::write_atomically`]).
 fn write_atomically(
     path: &std::path::Path,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), Failure> {
-    let fail = |e: std::io::Error| Failure { code: 1, message: format!("{}: {e}", path.display()) };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut out = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+    let fill = |tmp: &std::path::Path| {
+        let mut out = std::io::BufWriter::new(std::fs::File::create(tmp)?);
         write(&mut out)?;
-        out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(fail)
+        out.into_inner().map_err(|e| e.into_error())?.sync_all()
+    };
+    raylume_integrator::write_atomically(path, fill, |e| e)
+        .map_err(|e| Failure { code: 1, message: format!("{}: {e}", path.display()) })
 }

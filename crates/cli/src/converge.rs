@@ -4,7 +4,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use raylume_integrator::{Film, RenderSettings, metrics};
-use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, p3f};
+use raylume_render::{RenderOptions, RenderScene, SamplerKind};
+use raylume_scene::{DEFAULT_SCENE, p3f};
 
 use crate::{Failure, SamplerArg, bad_input};
 
@@ -61,13 +62,13 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", args.output.display()) })?;
     let render = |spp: u32, seed: u64, sampler: SamplerKind| {
         let options = RenderOptions {
-            settings: RenderSettings { spp, seed, ..RenderSettings::default() },
+            settings: RenderSettings { seed, ..RenderSettings::default() },
+            spp: Some(spp),
             sampler,
             ..base.clone()
         };
         // One pass: a progressive render forces area sampling of the pixel even at 1 spp.
-        let mut once = |_: &raylume_scene::Progress| std::ops::ControlFlow::Continue(());
-        scene.render_progressive(&options, &[spp], &mut once).map_err(bad_input)
+        scene.render_progressive(&options, &(), |_| std::ops::ControlFlow::Break(())).map_err(bad_input)
     };
     let reference: Film = match &args.reference {
         Some(path) => {
@@ -86,7 +87,7 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             eprintln!("raylume: rendering the reference at {} spp", args.reference_spp);
             let out = render(args.reference_spp, 0x005e_ed0f_7e1e, SamplerKind::Jittered)?;
             out.film
-                .write(&args.output.join("reference.pfm"))
+                .write(args.output.join("reference.pfm"))
                 .map_err(|e| Failure { code: 1, message: e.to_string() })?;
             out.film
         }
@@ -98,12 +99,13 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     for sampler in &args.sampler {
         let kind: SamplerKind = (*sampler).into();
         let (mut times, mut errors) = (Vec::new(), Vec::new());
-        let measured: Vec<(u32, f64, Film)> = match &args.time_budgets {
+        // Each render's samples per pixel as drawn (a jittered sampler rounds up to a square).
+        let measured: Vec<(u64, f64, Film)> = match &args.time_budgets {
             Some(budgets) => progressive_budgets(&scene, &base, kind, budgets)?,
             None => args
                 .spp_list
                 .iter()
-                .map(|&spp| render(spp, 1, kind).map(|out| (spp, out.render_seconds, out.film)))
+                .map(|&spp| render(spp, 1, kind).map(|out| (out.samples_per_pixel, out.render_seconds, out.film)))
                 .collect::<Result<_, _>>()?,
         };
         for (spp, seconds, film) in measured {
@@ -177,9 +179,8 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
     }
     let (x0, x1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
     let (y0, y1) = points.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
-    let tmp = path.with_file_name(format!(".convergence.{}.png", std::process::id()));
-    let draw = || -> Result<(), Box<dyn std::error::Error>> {
-        let root = BitMapBackend::new(&tmp, (900, 600)).into_drawing_area();
+    let draw = |tmp: &Path| -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(tmp, (900, 600)).into_drawing_area();
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(&root)
             .caption(format!("RMSE against render time: {title}"), ("sans-serif", 24))
@@ -212,11 +213,7 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
         root.present()?;
         Ok(())
     };
-    let result = draw().and_then(|()| Ok(std::fs::rename(&tmp, path)?));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    raylume_integrator::write_atomically(path, draw, |e| e.into())
 }
 
 /// Whether a point can stand on the log-log axes.
@@ -231,33 +228,37 @@ fn progressive_budgets(
     base: &RenderOptions,
     sampler: SamplerKind,
     budgets: &[f64],
-) -> Result<Vec<(u32, f64, Film)>, Failure> {
+) -> Result<Vec<(u64, f64, Film)>, Failure> {
     let mut budgets: Vec<f64> = budgets.to_vec();
     if budgets.is_empty() || budgets.iter().any(|b| !b.is_finite() || *b <= 0.0) {
         return Err(bad_input("--time-budgets: expected positive numbers of seconds"));
     }
     budgets.sort_by(f64::total_cmp);
-    let passes: Vec<u32> = (0..16).map(|i| 4u32.pow(i / 2)).collect();
-    let options =
-        RenderOptions { settings: RenderSettings { seed: 1, ..RenderSettings::default() }, sampler, ..base.clone() };
+    const PASSES: usize = 16;
+    let options = RenderOptions {
+        settings: RenderSettings { seed: 1, ..RenderSettings::default() },
+        spp: Some(1),
+        sampler,
+        ..base.clone()
+    };
     let mut found = Vec::new();
     scene
-        .render_progressive(&options, &passes, &mut |p| {
+        .render_progressive(&options, &(), |p| {
             while found.len() < budgets.len() && p.seconds >= budgets[found.len()] {
                 found.push((p.samples_per_pixel, p.seconds, p.film.clone()));
             }
-            if found.len() == budgets.len() {
+            if found.len() == budgets.len() || p.pass + 1 == PASSES {
                 std::ops::ControlFlow::Break(())
             } else {
-                std::ops::ControlFlow::Continue(())
+                // Pass i has 4^(i/2) samples: 1, 1, 4, 4, 16, 16, ...
+                std::ops::ControlFlow::Continue(4u32.pow((p.pass as u32).div_ceil(2)))
             }
         })
         .map_err(bad_input)?;
     if found.len() < budgets.len() {
         eprintln!(
-            "raylume: the budgets from {} s on were not reached after {} passes; they are left out",
+            "raylume: the budgets from {} s on were not reached after {PASSES} passes; they are left out",
             budgets[found.len()],
-            passes.len()
         );
     }
     Ok(found)

@@ -14,7 +14,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use raylume_accel::AccelKind;
 use raylume_integrator::{Profile, RenderSettings};
 use raylume_material::FresnelMode;
-use raylume_scene::{DEFAULT_SCENE, RenderOptions, SamplerKind, Scene, limits, p3f, procedural};
+use raylume_render::{RenderOptions, RenderScene, SamplerKind, limits};
+use raylume_scene::{DEFAULT_SCENE, Scene, p3f, procedural};
 
 mod bench;
 mod converge;
@@ -61,7 +62,8 @@ struct RenderArgs {
     /// Output image: .png (8-bit), .exr or .pfm (linear float).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
-    /// Samples per pixel (1: the pixel centre; more: jittered n x n strata, n = ceil(sqrt(spp))).
+    /// Samples per pixel, 1..=65536 (1: the pixel centre; more with the jittered sampler: n x n
+    /// strata, n = ceil(sqrt(spp))); default: the scene's `spp`, else 1.
     #[arg(long)]
     spp: Option<u32>,
     /// Maximum ray depth, counting the camera ray as 1 (default: the profile's, 4 for plain, 8 for course).
@@ -111,7 +113,7 @@ struct RenderArgs {
     /// Fuzzy reflections: the roughness of every reflective material, in [0, 1].
     #[arg(long)]
     roughness: Option<f32>,
-    /// Depth of field: the lens diameter in pixel sizes (0: pinhole).
+    /// Depth of field: the lens radius, in pixel sizes of the view plane (0: pinhole).
     #[arg(long)]
     aperture: Option<f32>,
     /// Depth of field: the focal distance as a ratio of the view-plane distance.
@@ -127,8 +129,12 @@ struct RenderArgs {
     #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
     shutter: Option<Vec<f32>>,
     /// Render only the pixels in [X0, X1) x [Y0, Y1) (row 0 at the top); they equal the full image's.
+    /// The corners come in this order (pbrt's --pixelbounds takes X0 X1 Y0 Y1).
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     crop: Option<Vec<u32>>,
+    /// Print only warnings and errors: no progress bar, no summary.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(clap::Args)]
@@ -263,7 +269,9 @@ pub fn run() -> ExitCode {
 /// ```
 /// use raylume_cli::check_arguments;
 /// assert!(check_arguments(["render", "--spp", "16", "-o", "out.png"]).is_ok());
-/// assert_eq!(check_arguments(["render", "--spp", "4294967295"]).unwrap_err(), "spp 4294967295: expected 0..=65536");
+/// let refused = |spp| check_arguments(["render", "--spp", spp]).unwrap_err();
+/// assert_eq!(refused("4294967295"), "spp 4294967295: expected 1..=65536 samples per pixel");
+/// assert_eq!(refused("0"), "spp 0: expected 1..=65536 samples per pixel");
 /// assert!(check_arguments(["render", "--threads", "10000"]).unwrap_err().starts_with("--threads 10000"));
 /// ```
 pub fn check_arguments<I, T>(args: I) -> Result<(), String>
@@ -381,12 +389,13 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     for w in &warnings {
         eprintln!("{w}");
     }
-    if let Some(summary) = summary {
+    if let Some(summary) = summary.filter(|_| !args.quiet) {
         eprintln!("raylume: {summary}");
     }
     // A cubemap the loader did not find was reported with its line: render with the background.
     if let Some(name) = &scene.env {
-        render_options.use_env &= raylume_scene::find_cubemap(name, &scene.env_search_dirs(&render_options)).is_ok();
+        render_options.use_env &=
+            raylume_scene::find_cubemap(name, &scene.cubemap_dirs(&render_options.env_dirs)).is_ok();
     }
     // What depends on the scene (its spp, the crop inside its image, the memory) before any work.
     scene.check(&render_options).map_err(bad_input)?;
@@ -394,7 +403,8 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     render_options.settings.spp = spp;
     let settings = render_options.settings;
     let n = settings.strata();
-    if spp > 1 && n * n != spp {
+    let jittered = render_options.sampler == SamplerKind::Jittered;
+    if jittered && spp > 1 && n * n != spp && !args.quiet {
         eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
     }
     let features = scene.features(&render_options).map_err(bad_input)?;
@@ -405,7 +415,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         .map_err(|e| Failure { code: 1, message: e.to_string() })?;
     let h = render_options.resolution.map_or(scene.view.height, |r| r.1);
     let rows = settings.crop.map_or(h, |c| c[3].min(h).saturating_sub(c[1]));
-    let bar = if std::io::stderr().is_terminal() {
+    let bar = if std::io::stderr().is_terminal() && !args.quiet {
         let bar = ProgressBar::new(rows as u64);
         bar.set_style(
             ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
@@ -421,13 +431,16 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         eprintln!("{w}");
     }
     out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    if args.quiet {
+        return Ok(());
+    }
     let s = out.stats;
     let total = out.build_seconds + out.render_seconds;
     let (w, h) = (out.film.width(), out.film.height());
     eprintln!(
         "raylume: wrote {} ({w}x{h}, {} spp, effects: {features}, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
         args.output.display(),
-        n * n,
+        out.samples_per_pixel,
         out.accel,
         pool.current_num_threads(),
         total,
@@ -453,7 +466,7 @@ fn scene_render(
     scene: &Scene,
     options: &RenderOptions,
     bar: &ProgressBar,
-) -> Result<raylume_scene::RenderOutput, Failure> {
+) -> Result<raylume_render::RenderOutput, Failure> {
     scene.render(options, &|| bar.inc(1)).map_err(bad_input)
 }
 
@@ -478,9 +491,7 @@ fn generate(name: &str, size: u32) -> Result<(), Failure> {
 /// The bench's flags within their limits (before a scene is read).
 fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
     check_threads(Some(args.threads))?;
-    if !(args.grid_k.is_finite() && args.grid_k > 0.0 && args.grid_k <= limits::MAX_GRID_K) {
-        return Err(bad_input(format!("--grid-k {}: expected a number in (0, {}]", args.grid_k, limits::MAX_GRID_K)));
-    }
+    raylume_accel::GridParams { k: args.grid_k, mailbox: true }.validate().map_err(bad_input)?;
     if args.count == 0 || args.count > 1 << 28 {
         return Err(bad_input(format!("--count {}: expected 1..=2^28 rays", args.count)));
     }

@@ -40,7 +40,7 @@ fn default_scene_renders_to_png_exr_and_pfm() {
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
         .collect();
     assert!(leftovers.is_empty());
 }
@@ -415,7 +415,10 @@ fn flags_beyond_the_limits_exit_2_before_any_work() {
     let dir = temp_dir("limits");
     let out = dir.join("out.pfm");
     let cases: &[(&[&str], &str)] = &[
-        (&["--spp", "4294967295"], "spp 4294967295: expected 0..=65536"),
+        (&["--spp", "4294967295"], "spp 4294967295: expected 1..=65536 samples per pixel"),
+        (&["--spp", "0"], "spp 0: expected 1..=65536 samples per pixel"),
+        (&["--crop", "10", "4", "10", "8"], "crop 10 4 10 8: expected X0 < X1 and Y0 < Y1"),
+        (&["--crop", "0", "8", "10", "4"], "crop 0 8 10 4: expected X0 < X1 and Y0 < Y1"),
         (&["--threads", "10000"], "--threads 10000: expected 1..=1024"),
         (&["--threads", "0"], "--threads 0: expected 1..=1024"),
         (&["--depth", "5000"], "depth 5000: expected 1..=256"),
@@ -424,6 +427,7 @@ fn flags_beyond_the_limits_exit_2_before_any_work() {
         (&["--crop", "700", "0", "710", "4"], "crop 700 0 710 4: expected pixels inside the 640 x 400 image"),
         (&["--crop", "0", "390", "8", "410"], "crop 0 390 8 410: expected pixels inside the 640 x 400 image"),
         (&["--shutter", "1", "0"], "shutter [1, 0] is not an interval"),
+        (&["--grid-k", "0"], "grid density 0: expected a number in (0, 1000]"),
     ];
     for (flags, message) in cases {
         let run = raylume().arg("render").args(*flags).arg("-o").arg(&out).output().unwrap();
@@ -436,6 +440,18 @@ fn flags_beyond_the_limits_exit_2_before_any_work() {
         );
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+/// `render` and `bench` check the grid's density with the same rule and say so in the same words.
+#[test]
+fn render_and_bench_refuse_a_grid_density_alike() {
+    for k in ["0", "NaN", "1001"] {
+        let render = raylume_cli::check_arguments(["render", "--grid-k", k]).unwrap_err();
+        let bench = raylume_cli::check_arguments(["bench", "--grid-k", k]).unwrap_err();
+        assert_eq!(render, bench);
+        assert!(render.starts_with(&format!("grid density {k}: expected a number in (0, 1000]")), "{render}");
+    }
+    assert!(raylume_cli::check_arguments(["bench", "--grid-k", "1000"]).is_ok());
 }
 
 fn write_pfm(path: &std::path::Path, w: u32, h: u32, pixel: impl Fn(u32) -> [f32; 3]) {
@@ -512,4 +528,49 @@ fn converge_writes_its_rows_even_when_the_plot_cannot_be_drawn() {
     assert!(!report.join("convergence.png").exists());
     let leftovers: Vec<_> = std::fs::read_dir(&report).unwrap().filter_map(|e| e.ok()).map(|e| e.file_name()).collect();
     assert_eq!(leftovers.len(), 2, "the CSV and the reference only: {leftovers:?}");
+}
+
+/// The summary gives the samples per pixel each sampler really drew; only the jittered sampler
+/// rounds up to a square, and says so.
+#[test]
+fn the_summary_reports_the_samples_rendered() {
+    let dir = temp_dir("samples");
+    let out = dir.join("out.png");
+    for (sampler, spp, shown, rounded) in
+        [("sobol", "8", "8 spp", false), ("independent", "5", "5 spp", false), ("jittered", "8", "9 spp", true)]
+    {
+        let run = raylume()
+            .args(["render", "--sampler", sampler, "--spp", spp, "--width", "16", "--height", "10", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(0), "{stderr}");
+        assert!(stderr.contains(&format!("(16x10, {shown}, ")), "{sampler}: {stderr}");
+        assert_eq!(stderr.contains("is not a square"), rounded, "{sampler}: {stderr}");
+    }
+}
+
+/// `--quiet` leaves stderr empty on success (no summary, no progress) and still writes the image.
+#[test]
+fn quiet_prints_nothing_on_success() {
+    let dir = temp_dir("quiet");
+    let out = dir.join("out.png");
+    let run =
+        raylume().args(["render", "--quiet", "--width", "16", "--height", "10", "-o"]).arg(&out).output().unwrap();
+    assert_eq!(run.status.code(), Some(0));
+    assert_eq!(String::from_utf8_lossy(&run.stderr), "");
+    assert!(out.is_file());
+    let loud = raylume().args(["render", "--width", "16", "--height", "10", "-o"]).arg(&out).output().unwrap();
+    assert!(String::from_utf8_lossy(&loud.stderr).contains("raylume: wrote"));
+}
+
+/// `render --help` calls the aperture what the camera uses it as: a lens radius.
+#[test]
+fn help_calls_the_aperture_a_radius() {
+    let help = raylume().args(["render", "--help"]).output().unwrap();
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(text.contains("the lens radius"), "{text}");
+    assert!(!text.contains("diameter"), "{text}");
+    assert!(text.contains("--quiet"), "{text}");
 }

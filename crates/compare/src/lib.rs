@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use raylume_geometry::{Aabb, Ray, Triangle};
 use raylume_intersect::Primitive;
+use raylume_render::RenderScene;
 use raylume_scene::{obj, procedural, rays};
 
 /// One mesh and its two ray sets.

@@ -46,7 +46,8 @@ impl CubemapFace {
 }
 
 /// An environment cubemap with the course's face conventions (see p3f.md): faces in the order
-/// `right, left, top, bottom, front, back`.
+/// `right, left, top, bottom, front, back` (the files of a cubemap folder are named so:
+/// `raylume_scene::CUBEMAP_FACES`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cubemap {
     /// The six faces: right, left, top, bottom, front, back.
@@ -54,9 +55,6 @@ pub struct Cubemap {
 }
 
 impl Cubemap {
-    /// The face names in storage order, as the files of a cubemap folder are named.
-    pub const FACE_NAMES: [&'static str; 6] = ["right", "left", "top", "bottom", "front", "back"];
-
     /// The colour in direction `dir` (need not be unit length).
     ///
     /// The face is chosen by the largest component: `x >= 0` gives `left`, `x < 0` `right`, and so on,

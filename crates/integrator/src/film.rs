@@ -81,10 +81,11 @@ impl ImageFormat {
     ///
     /// ```
     /// use raylume_integrator::ImageFormat;
-    /// assert_eq!(ImageFormat::from_path("out.PFM".as_ref()).unwrap(), ImageFormat::Pfm);
-    /// assert!(ImageFormat::from_path("out.jpg".as_ref()).is_err());
+    /// assert_eq!(ImageFormat::from_path("out.PFM").unwrap(), ImageFormat::Pfm);
+    /// assert!(ImageFormat::from_path("out.jpg").is_err());
     /// ```
-    pub fn from_path(path: &Path) -> Result<Self, OutputError> {
+    pub fn from_path(path: impl AsRef<Path>) -> Result<Self, OutputError> {
+        let path = path.as_ref();
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         match ext.as_str() {
             "png" => Ok(Self::Png),
@@ -107,6 +108,42 @@ pub fn remove_partial_outputs() -> std::sync::MutexGuard<'static, Vec<PathBuf>> 
         let _ = std::fs::remove_file(tmp);
     }
     partial
+}
+
+/// Writes the file `path` through a temporary file beside it (`.NAME.PID.tmp.EXT`, keeping the
+/// extension for writers that go by it): `write` fills the temporary file, which is then renamed
+/// over `path`. A failed write removes the temporary file and leaves `path` as it was, and so does
+/// a signal through [`remove_partial_outputs`]: no half-written file is ever left. `rename_failed`
+/// turns an error of the rename into `write`'s error type.
+///
+/// ```
+/// let path = std::env::temp_dir().join(format!("raylume-doc-{}.txt", std::process::id()));
+/// let wrote = raylume_integrator::write_atomically(&path, |tmp| std::fs::write(tmp, "done"), |e| e);
+/// assert!(wrote.is_ok());
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "done");
+/// let refuse = |_: &std::path::Path| Err("no".to_owned());
+/// assert!(raylume_integrator::write_atomically(&path, refuse, |e| e.to_string()).is_err());
+/// assert_eq!(std::fs::read_to_string(&path).unwrap(), "done", "the previous file is left");
+/// # std::fs::remove_file(&path).unwrap();
+/// ```
+pub fn write_atomically<E>(
+    path: impl AsRef<Path>,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+    rename_failed: impl FnOnce(std::io::Error) -> E,
+) -> Result<(), E> {
+    let path = path.as_ref();
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp{ext}", std::process::id()));
+    PARTIAL.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
+    let written = write(&tmp);
+    let mut partial = PARTIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let renamed = written.and_then(|()| std::fs::rename(&tmp, path).map_err(rename_failed));
+    if renamed.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    partial.retain(|p| p != &tmp);
+    renamed
 }
 
 impl Film {
@@ -154,25 +191,24 @@ impl Film {
     /// float). The data go to a temporary file beside `path` that is renamed over it at the end, so
     /// a failed or interrupted write never leaves a half-written image (see
     /// [`remove_partial_outputs`] for signals).
-    pub fn write(&self, path: &Path) -> Result<(), OutputError> {
+    ///
+    /// ```
+    /// use raylume_integrator::Film;
+    /// use raylume_geometry::Vec3;
+    /// let path = std::env::temp_dir().join(format!("raylume-film-doc-{}.pfm", std::process::id()));
+    /// let film = Film::from_pixels(2, 1, vec![Vec3::new(0.25, 0.5, 1.0), Vec3::ZERO]);
+    /// film.write(&path).unwrap();
+    /// assert_eq!(Film::read(&path).unwrap(), film);
+    /// # std::fs::remove_file(&path).unwrap();
+    /// ```
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<(), OutputError> {
+        let path = path.as_ref();
         let format = ImageFormat::from_path(path)?;
         if self.pixels.is_empty() {
             return Err(OutputError::Empty { path: path.to_owned(), width: self.width, height: self.height });
         }
         let io = |source| OutputError::Io { path: path.to_owned(), source };
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-        PARTIAL.lock().unwrap_or_else(|e| e.into_inner()).push(tmp.clone());
-        let encoded = self.encode(&tmp, format);
-        let result = {
-            let mut partial = PARTIAL.lock().unwrap_or_else(|e| e.into_inner());
-            let renamed = encoded.and_then(|()| std::fs::rename(&tmp, path).map_err(io));
-            if renamed.is_err() {
-                let _ = std::fs::remove_file(&tmp);
-            }
-            partial.retain(|p| p != &tmp);
-            renamed
-        };
+        let result = write_atomically(path, |tmp| self.encode(tmp, format), io);
         result.map_err(|e| match e {
             OutputError::Io { source, .. } => OutputError::Io { path: path.to_owned(), source },
             OutputError::Encode { source, .. } => OutputError::Encode { path: path.to_owned(), source },
@@ -182,7 +218,8 @@ impl Film {
 
     /// Reads a linear image: PFM (either byte order), OpenEXR, or PNG (8-bit values as `v / 255`).
     /// Only regular files of at most [`MAX_IMAGE_PIXELS`] pixels are read.
-    pub fn read(path: &Path) -> Result<Film, InputError> {
+    pub fn read(path: impl AsRef<Path>) -> Result<Film, InputError> {
+        let path = path.as_ref();
         let fail = |message: String| InputError { path: path.to_owned(), message };
         let format = ImageFormat::from_path(path).map_err(|e| fail(e.to_string()))?;
         let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;

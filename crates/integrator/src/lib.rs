@@ -36,63 +36,27 @@ pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
-pub use film::{Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs};
+pub use film::{
+    Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs, write_atomically,
+};
 pub use profile::Profile;
-pub use render::{MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, RayStats, RenderSettings, render};
+pub use render::{CancelToken, MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, Observer, RayStats, RenderSettings, render};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};
 
 use raylume_accel::Accelerator;
 use raylume_geometry::{Ray, Vec3, Vec3A};
 use raylume_material::Material;
-
-/// A light: a point, or a parallelogram area light centred on `position` and spanned by `edges`
-/// (the course's square: edges of its side along world X and Y).
-///
-/// ```
-/// use raylume_integrator::Light;
-/// use raylume_geometry::{Vec3, Vec3A};
-/// let square = Light::square(Vec3A::new(0.0, 0.0, 5.0), Vec3::ONE, 0.5);
-/// assert_eq!(square.edges[0], Vec3A::new(0.5, 0.0, 0.0));
-/// assert!(square.is_area() && !Light::point(Vec3A::ZERO, Vec3::ONE).is_area());
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Light {
-    /// Position (the centre of an area light).
-    pub position: Vec3A,
-    /// Colour (and intensity).
-    pub color: Vec3,
-    /// The parallelogram's two edges; both zero for a point light.
-    pub edges: [Vec3A; 2],
-    /// Side of the grid of point lights that stands for the area without antialiasing (0: the
-    /// render's [`RenderSettings::light_grid`]).
-    pub grid: u32,
-}
-
-impl Light {
-    /// A point light.
-    pub fn point(position: Vec3A, color: Vec3) -> Self {
-        Self { position, color, edges: [Vec3A::ZERO; 2], grid: 0 }
-    }
-
-    /// The course's square area light: side `size` in the world XY plane, centred on `position`.
-    pub fn square(position: Vec3A, color: Vec3, size: f32) -> Self {
-        Self { position, color, edges: [Vec3A::X * size, Vec3A::Y * size], grid: 0 }
-    }
-
-    /// Whether the light has an area.
-    pub fn is_area(&self) -> bool {
-        self.edges != [Vec3A::ZERO; 2]
-    }
-}
+pub use raylume_material::{Light, LightShape};
 
 /// Per-primitive shading data: which material, and optional vertex normals (p3f `pp` patches).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Shading {
     /// Index into the world's materials.
     pub material: u32,
-    /// Index into the world's vertex-normal table, or `u32::MAX` for none.
-    pub normals: u32,
+    /// Index into the world's vertex-normal table of a smooth triangle; `None` shades with the
+    /// geometric normal.
+    pub normals: Option<u32>,
 }
 
 /// Everything a render reads: the accelerator over the primitives, the materials, the lights and
@@ -121,7 +85,7 @@ impl<A: Accelerator, M: Material> World<A, M> {
         lights: Vec<Light>,
         background: Background,
     ) -> Self {
-        let shading = prim_material.into_iter().map(|material| Shading { material, normals: u32::MAX }).collect();
+        let shading = prim_material.into_iter().map(|material| Shading { material, normals: None }).collect();
         Self { accel, materials, shading, vertex_normals: Vec::new(), lights, background }
     }
 }

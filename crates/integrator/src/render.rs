@@ -121,21 +121,101 @@ impl AddAssign for RayStats {
     }
 }
 
+/// What a running render tells its caller and asks of it: [`row_done`](Observer::row_done) after each
+/// finished image row (a progress bar), [`cancelled`](Observer::cancelled) before each row is
+/// started (a render stops within one row per thread of being cancelled).
+///
+/// `()` observes nothing; a closure `Fn()` is called per row; a [`CancelToken`] cancels; a pair
+/// `(a, b)` does what both do.
+///
+/// ```
+/// use std::sync::atomic::{AtomicUsize, Ordering};
+/// use raylume_integrator::{CancelToken, Observer};
+/// let rows = AtomicUsize::new(0);
+/// let count = || {
+///     rows.fetch_add(1, Ordering::Relaxed);
+/// };
+/// let cancel = CancelToken::new();
+/// let both = (count, cancel.clone());
+/// both.row_done();
+/// assert_eq!(rows.load(Ordering::Relaxed), 1);
+/// assert!(!both.cancelled());
+/// cancel.cancel();
+/// assert!(both.cancelled() && !().cancelled());
+/// ```
+pub trait Observer: Sync {
+    /// Called once per finished image row.
+    fn row_done(&self) {}
+
+    /// Whether the render is to stop; rows not started yet are then left out.
+    fn cancelled(&self) -> bool {
+        false
+    }
+}
+
+impl Observer for () {}
+
+impl<F: Fn() + Sync> Observer for F {
+    fn row_done(&self) {
+        self()
+    }
+}
+
+impl<A: Observer, B: Observer> Observer for (A, B) {
+    fn row_done(&self) {
+        self.0.row_done();
+        self.1.row_done();
+    }
+
+    fn cancelled(&self) -> bool {
+        self.0.cancelled() || self.1.cancelled()
+    }
+}
+
+/// A flag that cancels the renders it is given to as an [`Observer`], from any thread (a user's
+/// stop button, a deadline); clones share the flag.
+#[derive(Clone, Debug, Default)]
+pub struct CancelToken(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+impl CancelToken {
+    /// A token not cancelled yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Cancels every render observing this token (or a clone of it).
+    pub fn cancel(&self) {
+        self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Whether [`cancel`](CancelToken::cancel) was called.
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+impl Observer for CancelToken {
+    fn cancelled(&self) -> bool {
+        self.is_cancelled()
+    }
+}
+
 /// Renders `world` through `camera` with `integrator`, taking each pixel's samples from `sampler`,
 /// in parallel over rows (on rayon's current pool). Each sample depends only on the seed, the pixel
 /// and its index, so the image is bit-identical whatever the number of threads, and a crop
-/// (`settings.crop`) holds exactly the full image's pixels. `on_row` is called once per finished
-/// row (for progress bars).
+/// (`settings.crop`) holds exactly the full image's pixels. `observer` hears of each finished row
+/// and can cancel: the rows not started once [`Observer::cancelled`] says so stay black, so the
+/// caller checks it after the render before using the image.
 ///
 /// The lens and time dimensions are drawn only for cameras that use them ([`Camera::USES_LENS`],
 /// [`Camera::USES_TIME`]): a pinhole render does no lens or shutter work at all.
-pub fn render<A, M, C, S, I>(
+pub fn render<A, M, C, S, I, O>(
     world: &World<A, M>,
     camera: &C,
     sampler: &S,
     integrator: &I,
     settings: &RenderSettings,
-    on_row: &(dyn Fn() + Sync),
+    observer: &O,
 ) -> (Film, RayStats)
 where
     A: Accelerator,
@@ -143,6 +223,7 @@ where
     C: Camera,
     S: Sampler,
     I: Integrator,
+    O: Observer + ?Sized,
 {
     let (w, h) = camera.resolution();
     let [x0, y0, x1, y1] =
@@ -163,6 +244,9 @@ where
         .enumerate()
         .map(|(row, out)| {
             let mut stats = RayStats::default();
+            if observer.cancelled() {
+                return stats;
+            }
             // Row 0 of the film is the top; the camera counts y from the bottom.
             let y = h - 1 - (y0 + row as u32);
             for (i, px) in out.iter_mut().enumerate() {
@@ -179,7 +263,7 @@ where
                 }
                 *px = if spp == 1 { sum } else { sum * inv };
             }
-            on_row();
+            observer.row_done();
             stats
         })
         .reduce(RayStats::default, |mut a, b| {
@@ -187,4 +271,60 @@ where
             a
         });
     (Film::from_pixels(cw, ch, pixels), stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use raylume_accel::BruteForce;
+    use raylume_camera::{Pinhole, View};
+    use raylume_geometry::{Sphere, Vec3, Vec3A};
+    use raylume_intersect::Primitive;
+    use raylume_material::Phong;
+
+    use super::*;
+    use crate::{Background, CancelToken, Centre, Light, Whitted, World};
+
+    fn lit_sphere() -> (World<BruteForce<Primitive>, Phong>, View) {
+        let prims = vec![Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 })];
+        let world = World::new(
+            BruteForce::new(prims),
+            vec![Phong::default()],
+            vec![0],
+            vec![Light::point(Vec3A::new(0.0, 0.0, 10.0), Vec3::ONE)],
+            Background::color(Vec3::ONE),
+        );
+        let view = View {
+            from: Vec3A::new(0.0, 0.0, 5.0),
+            at: Vec3A::ZERO,
+            up: Vec3A::Y,
+            angle_deg: 45.0,
+            hither: 0.0,
+            width: 8,
+            height: 6,
+            aperture: 0.0,
+            focal: 1.0,
+        };
+        (world, view)
+    }
+
+    #[test]
+    fn rows_are_reported_and_a_cancelled_render_traces_nothing() {
+        let (world, view) = lit_sphere();
+        let settings = RenderSettings::default();
+        let camera = Pinhole::new(&view);
+        let rows = AtomicUsize::new(0);
+        let count = || {
+            rows.fetch_add(1, Ordering::Relaxed);
+        };
+        let (_, stats) = render(&world, &camera, &Centre::new(0), &Whitted::new(&settings), &settings, &count);
+        assert_eq!((rows.load(Ordering::Relaxed), stats.camera), (6, 48));
+
+        let cancel = CancelToken::new();
+        cancel.cancel();
+        let (film, stats) = render(&world, &camera, &Centre::new(0), &Whitted::new(&settings), &settings, &cancel);
+        assert_eq!(stats.camera, 0);
+        assert!(film.pixels().iter().all(|&p| p == Vec3::ZERO), "rows not started stay black");
+    }
 }

@@ -187,7 +187,15 @@ impl Sampler for Jittered {
     }
 }
 
-pub(crate) fn splitmix(mut z: u64) -> u64 {
+/// SplitMix64's finaliser: a well-mixed 64-bit value from any `z` (seeds of independent streams
+/// from neighbouring integers, such as the seeds of successive progressive passes).
+///
+/// ```
+/// use raylume_integrator::sampler::splitmix;
+/// assert_ne!(splitmix(1), splitmix(2));
+/// assert_eq!(splitmix(0), 0xe220_a839_7b1d_cdaf);
+/// ```
+pub fn splitmix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

@@ -78,15 +78,15 @@ impl<const SOFT: u8> Whitted<SOFT> {
             (!world.accel.occluded(&Ray::with_time(above, wi, time), dist)).then_some(wi)
         };
         if SOFT == SoftShadows::NONE || !light.is_area() {
-            return match unoccluded(light.position, stats) {
+            return match unoccluded(light.centre(), stats) {
                 Some(wi) => light.color * material.local(ns, wo, wi),
                 None => Vec3::ZERO,
             };
         }
-        let [e0, e1] = light.edges;
-        let corner = light.position - (e0 + e1) * 0.5;
+        let [e0, e1] = light.edges();
+        let corner = light.centre() - (e0 + e1) * 0.5;
         if SOFT == SoftShadows::GRID {
-            let g = if light.grid > 0 { light.grid } else { self.grid };
+            let g = if light.grid() > 0 { light.grid() } else { self.grid };
             let mut sum = Vec3::ZERO;
             for i in 0..g {
                 for j in 0..g {
@@ -127,10 +127,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
         let entering = hit.front_face(ray);
         // Geometric normal on the side the ray came from.
         let n = if entering { hit.normal } else { -hit.normal };
-        let ns = if shading.normals == u32::MAX {
-            n
-        } else {
-            let vn = world.vertex_normals[shading.normals as usize];
+        let ns = if let Some(index) = shading.normals {
+            let vn = world.vertex_normals[index as usize];
             let b = hit.uv;
             let s = (vn[0] * (1.0 - b.x - b.y) + vn[1] * b.x + vn[2] * b.y).normalize_or_zero();
             if s == Vec3A::ZERO {
@@ -140,6 +138,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
             } else {
                 s
             }
+        } else {
+            n
         };
         let wo = -ray.dir;
         let above = offset_ray_origin(hit.point, hit.error, n);

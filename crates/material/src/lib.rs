@@ -1,5 +1,6 @@
-//! Materials for raylume: the course's [`Phong`] material (the p3f `f` entity), the [`Material`] trait
-//! the integrator shades with, and the optics of dielectrics: [`reflect`], [`refract`], the exact
+//! Materials and lights for raylume: the course's [`Phong`] material (the p3f `f` entity), the
+//! [`Material`] trait the integrator shades with, the [`Light`]s of a scene, and the optics of
+//! dielectrics: [`reflect`], [`refract`], the exact
 //! [`fresnel_dielectric`] equations and [`schlick`]'s approximation.
 //!
 //! ```
@@ -9,8 +10,10 @@
 //! assert!((schlick(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
 //! ```
 
+mod light;
 mod optics;
 
+pub use light::{Light, LightShape};
 pub use optics::{FresnelMode, fresnel_dielectric, reflect, refract, schlick};
 use raylume_geometry::{Vec3, Vec3A};
 

@@ -37,6 +37,9 @@ pub enum SceneError {
     /// The scene or the settings are not renderable (e.g. no camera, absurd size).
     #[error("{0}")]
     Invalid(String),
+    /// The render was cancelled before it finished (`raylume_render::CancelToken`).
+    #[error("the render was cancelled")]
+    Cancelled,
 }
 
 impl SceneError {

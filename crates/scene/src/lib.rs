@@ -1,6 +1,11 @@
-//! Scenes for raylume: the [`Scene`] model, the p3f loader ([`p3f::parse`], [`p3f::load`]) and writer
-//! ([`Scene::to_p3f`]), a [`SceneBuilder`] for scenes made in code, and [`Scene::render`], which builds
-//! the accelerator, camera and integrator a scene needs and renders it.
+//! Scene descriptions for raylume: the [`Scene`] model, the loader of p3f and its dialects
+//! ([`p3f::parse`], [`p3f::load`]), Wavefront OBJ meshes ([`obj`]), the p3f writer
+//! ([`Scene::to_p3f`]), a [`SceneBuilder`] for scenes made in code, the Standard Procedural
+//! Databases scenes ([`procedural`]) and the [`limits`] every scene meets.
+//!
+//! This crate describes scenes and renders nothing: it depends on the geometry, camera and material
+//! crates only, so a program that reads or writes p3f builds no accelerator, render loop or image
+//! codec. Rendering a [`Scene`] is `raylume-render`'s job.
 //!
 //! ```
 //! use raylume_scene::{p3f, SceneBuilder};
@@ -19,7 +24,7 @@
 //! ```
 
 mod builder;
-mod env;
+mod cubemap;
 mod error;
 pub mod limits;
 mod model;
@@ -28,15 +33,14 @@ pub mod p3f;
 mod polygon;
 pub mod procedural;
 pub mod rays;
-mod render;
 mod writer;
 
 pub use builder::SceneBuilder;
-pub use env::{find_cubemap, load_cubemap};
+pub use cubemap::{CUBEMAP_FACES, cubemap_faces, find_cubemap};
 pub use error::{SceneError, Warning};
-pub use model::{Light, LightShape, Object, Scene, Shape};
+pub use model::{AccelHint, Object, Scene, Shape};
 pub use polygon::triangulate;
-pub use render::{Features, Primitives, Progress, RenderOptions, RenderOutput, SamplerKind};
+pub use raylume_material::{Light, LightShape};
 
 /// The embedded default scene (p3f text), rendered when the CLI is given no scene.
 pub const DEFAULT_SCENE: &str = include_str!("default.p3f");

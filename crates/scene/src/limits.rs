@@ -1,8 +1,6 @@
-//! Every limit raylume puts on what it is asked to do, in one place: the same for scene files, the
-//! command line's flags and scenes built in code. Each is checked before any work starts and
-//! refused with a message that names the value and the limit.
-
-pub use raylume_integrator::{MAX_DEPTH, MAX_IMAGE_PIXELS, MAX_LIGHT_GRID, MAX_SPP};
+//! The limits on what a scene may ask for, the same for scene files and scenes built in code. Each
+//! is checked before any work starts and refused with a message that names the value and the
+//! limit. `raylume_render::limits` adds the limits of rendering (threads, memory, grid density).
 
 /// Largest image side, in pixels.
 pub const MAX_RESOLUTION: u32 = 16_384;
@@ -12,16 +10,9 @@ pub const MAX_PIXELS: u64 = 1 << 27;
 pub const MAX_FILE_BYTES: u64 = 1 << 32;
 /// Largest OBJ file read, in bytes.
 pub const MAX_OBJ_BYTES: u64 = 1 << 32;
-/// Most worker threads.
-pub const MAX_THREADS: usize = 1024;
-/// Largest uniform-grid density (cells per primitive).
-pub const MAX_GRID_K: f32 = 1000.0;
-/// Most memory a render may plan to take for its primitives, accelerator and image, in bytes.
-pub const MAX_RENDER_BYTES: u64 = 16 << 30;
-
-/// An estimate of the memory a render of `primitives` primitives at `pixels` pixels takes: the
-/// primitives and their shading, the accelerator's nodes and references, and the image with its
-/// accumulation.
-pub fn render_bytes(primitives: u64, pixels: u64) -> u64 {
-    primitives.saturating_mul(192).saturating_add(pixels.saturating_mul(32))
-}
+/// Most samples per pixel a scene's `spp` may ask for (the render loop's own limit,
+/// `raylume_integrator::MAX_SPP`, is the same).
+pub const MAX_SPP: u32 = 1 << 16;
+/// Largest side of the grid of point lights that stands for an area light (the render loop's
+/// `raylume_integrator::MAX_LIGHT_GRID`).
+pub const MAX_LIGHT_GRID: u32 = 64;

@@ -1,6 +1,6 @@
 use raylume_camera::View;
 use raylume_geometry::{Vec3, Vec3A};
-use raylume_material::Phong;
+use raylume_material::{Light, LightShape, Phong};
 
 /// A scene as the p3f format describes it: camera, background, lights, materials and objects.
 ///
@@ -20,8 +20,8 @@ pub struct Scene {
     pub materials: Vec<Phong>,
     /// Objects, each with its material.
     pub objects: Vec<Object>,
-    /// Suggested accelerator (p3f `accel`): 0 none, 1 grid, 2 BVH.
-    pub accel_hint: Option<u32>,
+    /// Suggested accelerator (p3f `accel`).
+    pub accel_hint: Option<AccelHint>,
     /// Suggested samples per pixel (p3f `spp`).
     pub spp_hint: Option<u32>,
     /// The camera's shutter interval (raylume's `shutter t0 t1` tag); by default the moving spheres'
@@ -32,58 +32,27 @@ pub struct Scene {
     pub base_dir: Option<std::path::PathBuf>,
 }
 
-/// A light: a point, or an area light whose [`LightShape`] starts at `position`.
+/// The accelerator a scene file suggests (p3f `accel`: `0`/`none`, `1`/`grid`, `2`/`bvh`); its
+/// value as a number is the one p3f writes.
 ///
 /// ```
-/// use raylume_scene::{Light, LightShape};
-/// use raylume_geometry::{Vec3, Vec3A};
-/// let lamp = Light::point(Vec3A::new(0.0, 5.0, 0.0), Vec3::ONE);
-/// assert_eq!(lamp.shape, LightShape::Point);
-/// assert!(!lamp.is_area());
+/// use raylume_scene::AccelHint;
+/// assert_eq!(AccelHint::ALL[1], AccelHint::Grid);
+/// assert_eq!(AccelHint::Bvh as u32, 2);
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Light {
-    /// Position: the point light, the centre of a square, the corner of a parallelogram.
-    pub position: Vec3A,
-    /// Colour.
-    pub color: Vec3,
-    /// What emits: a point or an area.
-    pub shape: LightShape,
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccelHint {
+    /// No accelerator: every primitive tested by every ray (`accel 0`).
+    None = 0,
+    /// A uniform grid (`accel 1`).
+    Grid = 1,
+    /// A bounding volume hierarchy (`accel 2`).
+    Bvh = 2,
 }
 
-/// The emitting shape of a [`Light`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum LightShape {
-    /// A point at the light's position (p3f `l x y z r g b`, `light punctual`).
-    Point,
-    /// The course's square area light: this side, in the world XY plane, centred on the light's
-    /// position (raylume's `l x y z r g b size`).
-    Square(f32),
-    /// A parallelogram with one corner at the light's position and its two edges ending at these
-    /// points (p3f 2024/25 `light quad`, student `al`).
-    Parallelogram {
-        /// The ends of the two edges that leave the corner.
-        ends: [Vec3A; 2],
-        /// Side of the grid of point lights that stands for it without antialiasing (0: the
-        /// render's light grid).
-        grid: u32,
-    },
-}
-
-impl Light {
-    /// A point light.
-    pub fn point(position: Vec3A, color: Vec3) -> Self {
-        Self { position, color, shape: LightShape::Point }
-    }
-
-    /// Whether the light has an area (soft shadows).
-    pub fn is_area(&self) -> bool {
-        match self.shape {
-            LightShape::Point => false,
-            LightShape::Square(size) => size > 0.0,
-            LightShape::Parallelogram { ends, .. } => ends.iter().any(|&e| e != self.position),
-        }
-    }
+impl AccelHint {
+    /// The hints in the order of their p3f numbers.
+    pub const ALL: [AccelHint; 3] = [AccelHint::None, AccelHint::Grid, AccelHint::Bvh];
 }
 
 /// An object: a shape and the index of its material in [`Scene::materials`].
@@ -142,12 +111,15 @@ pub enum Shape {
         /// Apex radius.
         apex_radius: f32,
     },
-    /// `mesh`: a triangle mesh with 0-based indices.
+    /// `mesh` (or `obj`): a triangle mesh with 0-based indices.
     Mesh {
         /// Vertex positions.
         vertices: Vec<Vec3A>,
         /// Triangles as vertex indices.
         triangles: Vec<[u32; 3]>,
+        /// The shading normals at each triangle's three corners (an OBJ file's `vn`), for smooth
+        /// shading; empty for a mesh shaded with its faces' normals.
+        normals: Vec<[Vec3A; 3]>,
     },
 }
 
@@ -180,7 +152,7 @@ impl Shape {
                 let points: Vec<Vec3A> = v.iter().map(|p| p.0).collect();
                 ("patch", flat(&mut crate::triangulate(&points).into_iter().map(|t| t.map(|i| points[i as usize]))))
             }
-            Shape::Mesh { vertices, triangles } => (
+            Shape::Mesh { vertices, triangles, .. } => (
                 "mesh",
                 flat(&mut triangles.iter().filter_map(|t| {
                     let [a, b, c] = t.map(|i| vertices.get(i as usize).copied());
@@ -220,6 +192,21 @@ impl Scene {
         raylume_geometry::Interval::new(a, b)
     }
 
+    /// The folders the scene's `env` cubemap is looked for in: the scene's folder
+    /// ([`Scene::base_dir`], else the current one), its parent, then `extra`.
+    ///
+    /// ```
+    /// use std::path::PathBuf;
+    /// use raylume_scene::{DEFAULT_SCENE, p3f};
+    /// let mut scene = p3f::parse(DEFAULT_SCENE, "d", &Default::default()).unwrap().scene;
+    /// scene.base_dir = Some(PathBuf::from("scenes"));
+    /// let dirs = scene.cubemap_dirs(&[PathBuf::from("maps")]);
+    /// assert_eq!(dirs, [PathBuf::from("scenes"), PathBuf::from("scenes/.."), PathBuf::from("maps")]);
+    /// ```
+    pub fn cubemap_dirs(&self, extra: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
+        crate::p3f::env_search_dirs(self.base_dir.as_deref(), extra)
+    }
+
     /// The number of primitives the scene makes (triangles of polygons and meshes counted one by one).
     pub fn primitive_count(&self) -> usize {
         self.objects
@@ -237,7 +224,7 @@ impl Scene {
 impl Scene {
     /// Checks that the scene can be rendered: a camera within the [`limits`](crate::limits), finite
     /// numbers everywhere, radii and counts that make shapes, mesh and material indices in range.
-    /// [`crate::SceneBuilder::build`] and [`Scene::render`] call it, so a scene made in code meets
+    /// [`crate::SceneBuilder::build`] and the render (`raylume_render::RenderScene::render`) call it, so a scene made in code meets
     /// the same rules as a file.
     ///
     /// ```
@@ -322,9 +309,6 @@ fn validate(s: &Scene) -> Result<(), String> {
     if let Some(spp) = s.spp_hint.filter(|&n| n > MAX_SPP) {
         return Err(format!("spp {spp}: expected 0..={MAX_SPP}"));
     }
-    if let Some(a) = s.accel_hint.filter(|&a| a > 2) {
-        return Err(format!("accel {a}: expected 0 (none), 1 (grid) or 2 (BVH)"));
-    }
     if let Some((t0, t1)) = s.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
         return Err(format!("shutter [{t0}, {t1}] is not an interval"));
     }
@@ -360,9 +344,15 @@ fn shape_problem(shape: &Shape) -> Option<String> {
                 && base != apex))
                 .then(|| "cone: expected finite, distinct ends and radii >= 0, not both 0".to_owned())
         }
-        Shape::Mesh { vertices, triangles } => {
+        Shape::Mesh { vertices, triangles, normals } => {
             if let Some(k) = vertices.iter().position(|&p| !finite(p)) {
                 return Some(format!("mesh: vertex {k} is not finite"));
+            }
+            if !normals.is_empty() && normals.len() != triangles.len() {
+                return Some(format!("mesh: {} normal triples for {} triangles", normals.len(), triangles.len()));
+            }
+            if let Some(t) = normals.iter().position(|n| !n.iter().all(|&n| finite(n))) {
+                return Some(format!("mesh: a normal of triangle {t} is not finite"));
             }
             let n = vertices.len();
             triangles.iter().enumerate().find_map(|(t, tri)| {

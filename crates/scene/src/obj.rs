@@ -1,4 +1,6 @@
-//! Wavefront OBJ meshes, read with `tobj` and triangulated.
+//! Wavefront OBJ meshes, read with `tobj` and triangulated, with their normals (`vn`) for smooth
+//! shading, optionally scaled and moved into place ([`load_transformed`], as the p3f `obj` tag
+//! does).
 
 use std::path::Path;
 
@@ -9,8 +11,10 @@ use crate::{SceneError, Shape};
 pub use crate::limits::MAX_OBJ_BYTES;
 
 /// Reads every model of an OBJ file into one triangle mesh ([`Shape::Mesh`]); polygons are
-/// triangulated, materials (and the MTL files they name, which are not opened) and texture
-/// coordinates ignored. Only regular files of at most [`MAX_OBJ_BYTES`] are read.
+/// triangulated, and the faces' normals (`f v//vn`) kept as the mesh's shading normals (a model
+/// without them gets its faces' own normals where another has them). Materials (and the MTL files
+/// they name, which are not opened) and texture coordinates are ignored. Only regular files of at
+/// most [`MAX_OBJ_BYTES`] are read.
 ///
 /// ```no_run
 /// let mesh = raylume_scene::obj::load("bunny.obj").unwrap();
@@ -20,6 +24,64 @@ pub fn load(path: impl AsRef<Path>) -> Result<Shape, SceneError> {
     let bytes = crate::p3f::read_capped(path, MAX_OBJ_BYTES)
         .map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
     parse(&bytes, &path.display().to_string())
+}
+
+/// Reads an OBJ file ([`load`]) scaled and moved by `transform`.
+///
+/// ```no_run
+/// use raylume_scene::obj::{load_transformed, Transform};
+/// use raylume_geometry::Vec3A;
+/// let bunny = load_transformed("bunny.obj", Transform { scale: 10.0, translate: Vec3A::new(0.0, -1.0, 0.0) });
+/// ```
+pub fn load_transformed(path: impl AsRef<Path>, transform: Transform) -> Result<Shape, SceneError> {
+    transform.apply(load(path)?)
+}
+
+/// Where a mesh goes: scaled by `scale` about the origin, then moved by `translate` (the p3f tag
+/// `obj FILE scale tx ty tz`). The default leaves a mesh as it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    /// The scale, positive.
+    pub scale: f32,
+    /// The translation, applied after the scale.
+    pub translate: Vec3A,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self { scale: 1.0, translate: Vec3A::ZERO }
+    }
+}
+
+impl Transform {
+    /// The mesh `shape` moved into place (its normals, unchanged by a uniform scale and a
+    /// translation, are kept); other shapes are returned as they are. An error if the scale is not
+    /// positive or the vertices would not stay finite.
+    ///
+    /// ```
+    /// use raylume_scene::{obj::Transform, Shape};
+    /// use raylume_geometry::Vec3A;
+    /// let tri = raylume_scene::obj::parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").unwrap();
+    /// let moved = Transform { scale: 2.0, translate: Vec3A::new(0.0, 0.0, 5.0) }.apply(tri).unwrap();
+    /// let Shape::Mesh { vertices, .. } = moved else { unreachable!() };
+    /// assert_eq!(vertices[1], Vec3A::new(2.0, 0.0, 5.0));
+    /// ```
+    pub fn apply(&self, shape: Shape) -> Result<Shape, SceneError> {
+        if !(self.scale.is_finite() && self.scale > 0.0 && self.translate.is_finite()) {
+            return Err(SceneError::Invalid(format!(
+                "obj transform: expected a positive scale and a finite translation, found scale {} and translation {}",
+                self.scale, self.translate
+            )));
+        }
+        let Shape::Mesh { vertices, triangles, normals } = shape else { return Ok(shape) };
+        let vertices: Vec<Vec3A> = vertices.into_iter().map(|v| v * self.scale + self.translate).collect();
+        if vertices.iter().any(|v| !v.is_finite()) {
+            return Err(SceneError::Invalid(
+                "expected an obj scale and translation that keep its vertices finite".to_owned(),
+            ));
+        }
+        Ok(Shape::Mesh { vertices, triangles, normals })
+    }
 }
 
 /// Parses the bytes of an OBJ file ([`load`]); `name` names it in messages, which give the line
@@ -57,6 +119,8 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
     let path = Path::new(name);
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
+    // Corner normals of each triangle, `None` for a model without normals.
+    let mut corner_normals: Vec<Option<[Vec3A; 3]>> = Vec::new();
     for model in &models {
         let mesh = &model.mesh;
         let base = vertices.len() as u32;
@@ -82,11 +146,39 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
             }
             triangles.push([base + t[0], base + t[1], base + t[2]]);
         }
+        let normal = |k: u32| {
+            let n = mesh.normals.get(3 * k as usize..3 * k as usize + 3)?;
+            Some(Vec3A::new(n[0], n[1], n[2])).filter(|n| n.is_finite())
+        };
+        let smooth = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
+        for ni in mesh.normal_indices.chunks_exact(3).take(if smooth { usize::MAX } else { 0 }) {
+            let corners = [normal(ni[0]), normal(ni[1]), normal(ni[2])];
+            let [Some(a), Some(b), Some(c)] = corners else {
+                return Err(SceneError::Invalid(format!(
+                    "{}: a face of '{}' refers to a normal that is missing or not finite",
+                    path.display(),
+                    model.name
+                )));
+            };
+            corner_normals.push(Some([a, b, c]));
+        }
+        if !smooth {
+            corner_normals.extend(std::iter::repeat_n(None, mesh.indices.len() / 3));
+        }
     }
     if triangles.is_empty() {
         return Err(SceneError::Invalid(format!("{}: no faces", path.display())));
     }
-    Ok(Shape::Mesh { vertices, triangles })
+    let normals = if corner_normals.iter().any(Option::is_some) {
+        let face = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            [(b - a).cross(c - a).normalize_or_zero(); 3]
+        };
+        corner_normals.iter().zip(&triangles).map(|(n, t)| n.unwrap_or_else(|| face(t))).collect()
+    } else {
+        Vec::new()
+    };
+    Ok(Shape::Mesh { vertices, triangles, normals })
 }
 
 fn describe(e: &tobj::LoadError) -> &'static str {

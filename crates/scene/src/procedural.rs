@@ -170,7 +170,7 @@ pub fn tetra(depth: u32) -> Result<Scene, SceneError> {
         env: None,
         lights: vec![light(4.0, 3.0, 5.0), light(-3.0, 5.0, 2.0)],
         materials: vec![material([1.0, 0.2, 0.2], 0.9, 0.1, 20.0, 0.0, 1.0)],
-        objects: vec![Object { material: 0, shape: Shape::Mesh { vertices, triangles } }],
+        objects: vec![Object { material: 0, shape: Shape::Mesh { vertices, triangles, normals: Vec::new() } }],
         accel_hint: None,
         spp_hint: None,
         base_dir: None,
@@ -230,7 +230,7 @@ pub fn mount(depth: u32) -> Result<Scene, SceneError> {
         vertices.extend(t);
         triangles.push([i, i + 1, i + 2]);
     }
-    objects.push(Object { material: 1, shape: Shape::Mesh { vertices, triangles } });
+    objects.push(Object { material: 1, shape: Shape::Mesh { vertices, triangles, normals: Vec::new() } });
     Ok(Scene {
         view: view(Vec3A::new(-1.6, 1.6, 1.7), Vec3A::ZERO, Vec3A::Z, 45.0),
         background: Vec3::new(0.078, 0.361, 0.753),

@@ -39,7 +39,7 @@ pub fn camera_rays(view: &View, count: usize) -> Vec<Ray> {
 /// The rays of a row-major `side x side` view (as [`camera_rays`] makes them) reordered tile by tile:
 /// `tile x tile` pixels, the tiles row-major, short tiles along the right and bottom edges where
 /// `tile` does not divide `side`. The order in which a renderer hands the batch queries
-/// ([`Accelerator::closest_hits`](raylume_accel::Accelerator::closest_hits)) runs of neighbouring rays.
+/// (`raylume_accel::Accelerator::closest_hits`) runs of neighbouring rays.
 ///
 /// ```
 /// use raylume_geometry::{Ray, Vec3A};

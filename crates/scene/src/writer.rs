@@ -19,7 +19,7 @@ impl Scene {
         let mut text = String::new();
         let o = &mut text;
         if let Some(a) = self.accel_hint {
-            let _ = writeln!(o, "accel {a}");
+            let _ = writeln!(o, "accel {}", a as u32);
         }
         if let Some(s) = self.spp_hint {
             let _ = writeln!(o, "spp {s}");
@@ -137,7 +137,19 @@ fn write_shape(o: &mut String, shape: &Shape) {
             v3(o, *apex);
             let _ = writeln!(o, " {apex_radius}");
         }
-        Shape::Mesh { vertices, triangles } => {
+        // p3f's `mesh` has no normals: a smooth mesh is written as one patch per triangle.
+        Shape::Mesh { vertices, triangles, normals } if !normals.is_empty() => {
+            for (t, n) in triangles.iter().zip(normals) {
+                o.push_str("pp 3\n");
+                for (&i, &n) in t.iter().zip(n) {
+                    v3(o, vertices[i as usize]);
+                    o.push(' ');
+                    v3(o, n);
+                    o.push('\n');
+                }
+            }
+        }
+        Shape::Mesh { vertices, triangles, .. } => {
             let _ = writeln!(o, "mesh {} {}", vertices.len(), triangles.len());
             for p in vertices {
                 v3(o, *p);

@@ -5,8 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use raylume_geometry::{Vec3, Vec3A};
+use raylume_render::{RenderOptions, RenderScene};
 use raylume_scene::p3f::{Dialect, LoadOptions, Loaded, load, parse};
-use raylume_scene::{LightShape, RenderOptions, Scene, SceneError, Shape};
+use raylume_scene::{AccelHint, LightShape, Scene, SceneError, Shape};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/dialects").join(name)
@@ -134,8 +135,8 @@ fn p3f_of_2021_with_accel_spp_and_a_mesh() {
     assert_eq!(l.dialect, Dialect::P3f);
     assert!(l.warnings.is_empty());
     let s = &l.scene;
-    assert_eq!((s.accel_hint, s.spp_hint), (Some(1), Some(4)));
-    let Shape::Mesh { vertices, triangles } = &s.objects[0].shape else { panic!("a mesh") };
+    assert_eq!((s.accel_hint, s.spp_hint), (Some(AccelHint::Grid), Some(4)));
+    let Shape::Mesh { vertices, triangles, .. } = &s.objects[0].shape else { panic!("a mesh") };
     assert_eq!(vertices.len(), 5);
     assert_eq!(triangles, &[[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], "-1 is the last vertex");
     // The library takes the scene's spp and accelerator unless told otherwise.
@@ -152,7 +153,7 @@ fn p3f_of_2024_with_its_own_words() {
     assert_eq!(l.dialect, Dialect::P3f2024);
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
     let s = &l.scene;
-    assert_eq!((s.accel_hint, s.spp_hint), (Some(2), Some(1)));
+    assert_eq!((s.accel_hint, s.spp_hint), (Some(AccelHint::Bvh), Some(1)));
     assert_eq!((s.view.from, s.view.at), (Vec3A::new(0.0, -5.0, 2.0), Vec3A::new(0.0, 0.0, 0.5)));
     assert_eq!((s.view.width, s.view.height, s.view.angle_deg), (80, 60, 40.0));
     assert_eq!(s.lights[0].shape, LightShape::Point);

@@ -4,7 +4,8 @@
 use raylume_geometry::{Vec3, Vec3A};
 use raylume_integrator::RenderSettings;
 use raylume_material::Phong;
-use raylume_scene::{RenderOptions, Scene, SceneBuilder, SceneError, Shape, limits, obj, p3f};
+use raylume_render::{RenderOptions, RenderScene, limits};
+use raylume_scene::{Scene, SceneBuilder, SceneError, Shape, obj, p3f};
 
 fn lit() -> SceneBuilder {
     SceneBuilder::new()
@@ -54,7 +55,10 @@ fn a_deep_ray_tree_is_refused_and_the_deepest_allowed_fits_a_default_stack() {
 fn samples_resolution_and_crops_beyond_the_limits_are_refused() {
     let scene = lit().sphere(Vec3A::ZERO, 1.0).build().unwrap();
     let e = |o: RenderOptions| scene.render(&o, &|| {}).unwrap_err().to_string();
-    assert_eq!(e(RenderOptions { spp: Some(u32::MAX), ..Default::default() }), "spp 4294967295: expected 0..=65536");
+    assert_eq!(
+        e(RenderOptions { spp: Some(u32::MAX), ..Default::default() }),
+        "spp 4294967295: expected 1..=65536 samples per pixel"
+    );
     assert!(e(RenderOptions { resolution: Some((100_000, 100_000)), ..Default::default() }).starts_with("resolution"));
     let crop =
         |c| RenderOptions { settings: RenderSettings { crop: Some(c), ..Default::default() }, ..Default::default() };
@@ -62,7 +66,7 @@ fn samples_resolution_and_crops_beyond_the_limits_are_refused() {
     assert_eq!(e(crop([20, 20, 30, 30])), "crop 20 20 30 30: expected pixels inside the 16 x 16 image");
     assert_eq!(e(crop([4, 4, 4, 8])), "crop 4 4 4 8: expected X0 < X1 and Y0 < Y1");
     let grid = RenderOptions { grid: raylume_accel::GridParams { k: f32::NAN, mailbox: true }, ..Default::default() };
-    assert_eq!(e(grid), "grid density NaN: expected (0, 1000]");
+    assert_eq!(e(grid), "grid density NaN: expected a number in (0, 1000]");
     // A crop inside the image renders exactly its pixels.
     assert_eq!(scene.render(&crop([0, 0, 16, 4]), &|| {}).unwrap().film.height(), 4);
 }

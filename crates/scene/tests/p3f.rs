@@ -48,7 +48,7 @@ fn every_tag() {
          mesh 4 2\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n1 2 3\n1 3 -1\n"
     );
     let s = ok(&text);
-    assert_eq!(s.accel_hint, Some(2));
+    assert_eq!(s.accel_hint, Some(raylume_scene::AccelHint::Bvh));
     assert_eq!(s.spp_hint, Some(16));
     assert_eq!(s.background, Vec3::new(0.1, 0.2, 0.3));
     assert_eq!(s.lights.len(), 2);
@@ -244,7 +244,7 @@ fn dragon_has_its_hundred_thousand_triangles() {
     let scene = load(shared.join("scenes/dragon.p3f"), &LoadOptions::default()).unwrap().scene;
     println!("dragon.p3f loaded in {:.3} s", start.elapsed().as_secs_f64());
     let mesh = scene.objects.iter().find_map(|o| match &o.shape {
-        Shape::Mesh { vertices, triangles } => Some((vertices.len(), triangles.len())),
+        Shape::Mesh { vertices, triangles, .. } => Some((vertices.len(), triangles.len())),
         _ => None,
     });
     assert_eq!(mesh, Some((50_000, 100_000)));
@@ -265,7 +265,7 @@ fn built_scene_round_trips_through_text() {
         .triangle(Vec3A::ZERO, Vec3A::X, Vec3A::Y)
         .plane([Vec3A::ZERO, Vec3A::X, Vec3A::Z])
         .mesh(vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y, Vec3A::ONE], vec![[0, 1, 2], [1, 3, 2]])
-        .accel_hint(1)
+        .accel_hint(raylume_scene::AccelHint::Grid)
         .spp_hint(4)
         .build()
         .unwrap();

@@ -70,7 +70,7 @@ fn sizes_match_the_course_scenes_and_the_formulas() {
 fn fractal_mountain_has_no_cracks() {
     // Every edge inside the mountain is shared by exactly two triangles, with the same endpoints.
     let scene = mount(4).unwrap();
-    let Some(Shape::Mesh { vertices, triangles }) =
+    let Some(Shape::Mesh { vertices, triangles, .. }) =
         scene.objects.iter().map(|o| &o.shape).find(|s| matches!(s, Shape::Mesh { .. }))
     else {
         panic!("a mesh")
@@ -93,7 +93,7 @@ fn fractal_mountain_has_no_cracks() {
 fn obj_meshes_load_and_place() {
     let Some(shared) = shared() else { return };
     let bunny = obj::load(shared.join("meshes/bunny.obj")).unwrap();
-    let Shape::Mesh { ref vertices, ref triangles } = bunny else { panic!("a mesh") };
+    let Shape::Mesh { ref vertices, ref triangles, .. } = bunny else { panic!("a mesh") };
     assert_eq!(triangles.len(), 3674);
     let bounds = Aabb::from_points(vertices.iter().copied());
     // The p3f extension places it with the current material, scaled and moved.

@@ -10,7 +10,7 @@ use raylume_material::Phong;
 
 use super::lexer::{Lexer, Token, shown};
 use super::{Dialect, LoadOptions, Loaded, MAX_PIXELS, MAX_RESOLUTION, env_search_dirs};
-use crate::{Light, LightShape, Object, Scene, SceneError, Shape, Warning};
+use crate::{AccelHint, Light, LightShape, Object, Scene, SceneError, Shape, Warning};
 
 /// Every tag of every dialect.
 const TAGS: &[&str] = &[
@@ -51,7 +51,7 @@ struct SceneParts<'a> {
     lights: Vec<Light>,
     materials: Vec<Phong>,
     objects: Vec<Object>,
-    accel_hint: Option<u32>,
+    accel_hint: Option<AccelHint>,
     spp_hint: Option<u32>,
     shutter: Option<(f32, f32)>,
 }
@@ -347,7 +347,7 @@ impl<'a, 'f> Parser<'a, 'f> {
         let env = parts.env;
         if let Some((name, tag)) = &env {
             let dirs = env_search_dirs(self.options.base_dir.as_deref(), &self.options.env_dirs);
-            if let Err(why) = crate::env::find_cubemap(name, &dirs) {
+            if let Err(why) = crate::cubemap::find_cubemap(name, &dirs) {
                 let message = format!("environment map: {why}; escaping rays show the background colour");
                 if let Err(e) = self.warn(tag, message) {
                     return Err(e.with_earlier_warnings(self.warnings));
@@ -491,13 +491,13 @@ impl<'a, 'f> Parser<'a, 'f> {
     }
 
     /// `accel N` (0 none, 1 grid, 2 BVH) or, in 2024/25, `accel none|grid|bvh`.
-    fn accel(&mut self) -> Result<u32, SceneError> {
+    fn accel(&mut self) -> Result<AccelHint, SceneError> {
         let t = self.lex.peek();
         if let Some(word) = t.filter(|t| !t.is_number()) {
             let hint = match word.text.to_ascii_lowercase().as_str() {
-                "none" => 0,
-                "grid" => 1,
-                "bvh" => 2,
+                "none" => AccelHint::None,
+                "grid" => AccelHint::Grid,
+                "bvh" => AccelHint::Bvh,
                 _ => {
                     return Err(self.error(
                         &word,
@@ -509,7 +509,7 @@ impl<'a, 'f> Parser<'a, 'f> {
             self.p3f2024 = true;
             return Ok(hint);
         }
-        Ok(self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as u32)
+        Ok(AccelHint::ALL[self.integer("accelerator (0 none, 1 grid, 2 BVH)", 0, 2)? as usize])
     }
 
     /// The camera: `v from …` (or 2024/25 `camera eye …`) and its keywords. They may come in any
@@ -622,19 +622,12 @@ impl<'a, 'f> Parser<'a, 'f> {
         let name = self.token("an OBJ file name")?;
         let path = self.options.base_dir.as_deref().unwrap_or(Path::new(".")).join(name.text);
         let shape = crate::obj::load(&path).map_err(|e| self.error(&name, format!("obj '{}': {e}", name.shown())))?;
-        let (mut scale, mut offset) = (1.0, Vec3A::ZERO);
+        let mut place = crate::obj::Transform::default();
         if self.lex.peek().is_some_and(|t| t.is_number()) {
-            scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
-            offset = self.vec3("obj translation")?;
+            place.scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
+            place.translate = self.vec3("obj translation")?;
         }
-        let Shape::Mesh { vertices, triangles } = shape else { return Ok(shape) };
-        let vertices: Vec<Vec3A> = vertices.into_iter().map(|v| v * scale + offset).collect();
-        if vertices.iter().any(|v| !v.is_finite()) {
-            return Err(
-                self.error(&name, "expected an obj scale and translation that keep its vertices finite".to_owned())
-            );
-        }
-        Ok(Shape::Mesh { vertices, triangles })
+        place.apply(shape).map_err(|e| self.error(&name, e.to_string()))
     }
 
     fn mesh(&mut self) -> Result<Shape, SceneError> {
@@ -674,7 +667,7 @@ impl<'a, 'f> Parser<'a, 'f> {
             }
             triangles.push(tri);
         }
-        Ok(Shape::Mesh { vertices, triangles })
+        Ok(Shape::Mesh { vertices, triangles, normals: Vec::new() })
     }
 }
 

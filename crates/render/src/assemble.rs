@@ -1,0 +1,467 @@
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use raylume_accel::{AccelKind, AccelVisitor, Accelerator, with_accelerator};
+use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
+use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
+use raylume_integrator::{
+    Background, Centre, Film, Independent, Integrator, Jittered, Light, Observer, RayStats, RenderSettings, Sampler,
+    Shading, Sobol, SoftShadows, Whitted, World, render,
+};
+use raylume_intersect::Primitive;
+use raylume_material::Phong;
+
+use raylume_scene::{AccelHint, Scene, SceneError, Shape, Warning};
+
+use crate::{Features, RenderOptions, RenderOutput, RenderScene, SamplerKind, limits, load_cubemap};
+
+/// The primitives of a scene with their shading data, in one order.
+pub struct Primitives {
+    /// The primitives.
+    pub primitives: Vec<Primitive>,
+    /// Shading of each primitive.
+    pub shading: Vec<Shading>,
+    /// Vertex normals referenced by [`Shading::normals`].
+    pub vertex_normals: Vec<[Vec3A; 3]>,
+}
+
+impl RenderScene for Scene {
+    fn primitives(&self) -> Primitives {
+        let count = self.primitive_count();
+        let mut out = Primitives {
+            primitives: Vec::with_capacity(count),
+            shading: Vec::with_capacity(count),
+            vertex_normals: Vec::new(),
+        };
+        let none = None;
+        for o in &self.objects {
+            let mut push = |p: Primitive, normals: Option<u32>| {
+                out.primitives.push(p);
+                out.shading.push(Shading { material: o.material, normals });
+            };
+            match &o.shape {
+                Shape::Sphere { center, radius } => {
+                    push(Primitive::Sphere(Sphere { center: *center, radius: *radius }), none)
+                }
+                Shape::MovingSphere { center0, center1, radius, time0, time1 } => push(
+                    Primitive::MovingSphere(MovingSphere {
+                        center0: *center0,
+                        center1: *center1,
+                        radius: *radius,
+                        time0: *time0,
+                        time1: *time1,
+                    }),
+                    none,
+                ),
+                Shape::Box { min, max } => push(Primitive::Box(AaBox { bounds: Aabb::new(*min, *max) }), none),
+                Shape::Polygon(v) => {
+                    for t in raylume_scene::triangulate(v) {
+                        let [a, b, c] = t.map(|i| v[i as usize]);
+                        push(Primitive::Triangle(Triangle::new(a, b, c)), none);
+                    }
+                }
+                Shape::Patch(v) => {
+                    let points: Vec<Vec3A> = v.iter().map(|p| p.0).collect();
+                    for t in raylume_scene::triangulate(&points) {
+                        let [a, b, c] = t.map(|i| v[i as usize]);
+                        let index = out.vertex_normals.len() as u32;
+                        out.vertex_normals.push([a.1, b.1, c.1].map(|n| n.normalize_or_zero()));
+                        out.primitives.push(Primitive::Triangle(Triangle::new(a.0, b.0, c.0)));
+                        out.shading.push(Shading { material: o.material, normals: Some(index) });
+                    }
+                }
+                Shape::Plane([p0, p1, p2]) => {
+                    if let Some(plane) = Plane::from_points(*p0, *p1, *p2) {
+                        push(Primitive::Plane(plane), none);
+                    }
+                }
+                Shape::Cone { base, base_radius, apex, apex_radius } => push(
+                    Primitive::Cone(Cone {
+                        base: *base,
+                        base_radius: *base_radius,
+                        apex: *apex,
+                        apex_radius: *apex_radius,
+                    }),
+                    none,
+                ),
+                Shape::Mesh { vertices, triangles, normals } if normals.is_empty() => {
+                    for t in triangles {
+                        let [a, b, c] = t.map(|i| vertices[i as usize]);
+                        push(Primitive::Triangle(Triangle::new(a, b, c)), none);
+                    }
+                }
+                Shape::Mesh { vertices, triangles, normals } => {
+                    for (t, n) in triangles.iter().zip(normals) {
+                        let [a, b, c] = t.map(|i| vertices[i as usize]);
+                        let index = out.vertex_normals.len() as u32;
+                        out.vertex_normals.push(n.map(|n| n.normalize_or_zero()));
+                        out.primitives.push(Primitive::Triangle(Triangle::new(a, b, c)));
+                        out.shading.push(Shading { material: o.material, normals: Some(index) });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    fn accel_kind(&self, options: &RenderOptions) -> AccelKind {
+        options.accel.unwrap_or(match self.accel_hint {
+            Some(AccelHint::None) => AccelKind::None,
+            Some(AccelHint::Grid) => AccelKind::Grid,
+            Some(AccelHint::Bvh) | None => AccelKind::Bvh,
+        })
+    }
+
+    fn check(&self, options: &RenderOptions) -> Result<(), SceneError> {
+        self.prepared(options).map(|_| ())
+    }
+
+    fn features(&self, options: &RenderOptions) -> Result<Features, SceneError> {
+        Ok(self.features_of(&self.prepared(options)?))
+    }
+
+    fn samples_per_pixel(&self, options: &RenderOptions) -> Result<u32, SceneError> {
+        Ok(self.prepared(options)?.settings.spp)
+    }
+
+    fn render<O: Observer + ?Sized>(&self, options: &RenderOptions, observer: &O) -> Result<RenderOutput, SceneError> {
+        self.render_passes(options, &Dyn(observer), None)
+    }
+
+    fn render_progressive<O: Observer + ?Sized>(
+        &self,
+        options: &RenderOptions,
+        observer: &O,
+        mut on_pass: impl FnMut(&Progress) -> ControlFlow<(), u32>,
+    ) -> Result<RenderOutput, SceneError> {
+        self.render_passes(options, &Dyn(observer), Some(&mut on_pass))
+    }
+}
+
+/// The steps of a render, private to this module.
+trait Steps {
+    fn prepared(&self, options: &RenderOptions) -> Result<Prepared, SceneError>;
+    fn background(&self, options: &RenderOptions, warnings: &mut Vec<Warning>) -> Result<Background, SceneError>;
+    fn features_of(&self, p: &Prepared) -> Features;
+    fn render_passes(
+        &self,
+        options: &RenderOptions,
+        observer: &dyn Observer,
+        progressive: Option<OnPass>,
+    ) -> Result<RenderOutput, SceneError>;
+}
+
+impl Steps for Scene {
+    /// The scene as it will be rendered with `options`: its view, lights and materials with the
+    /// overrides applied.
+    fn prepared(&self, options: &RenderOptions) -> Result<Prepared, SceneError> {
+        self.validate()?;
+        options.validate()?;
+        let mut view = self.view;
+        if let Some((w, h)) = options.resolution {
+            view.width = w;
+            view.height = h;
+        }
+        view.aperture = options.aperture.unwrap_or(view.aperture);
+        view.focal = options.focal.unwrap_or(view.focal);
+        let lights = match options.area_light_size {
+            // Every light becomes a square of this side centred on its position.
+            Some(size) => self.lights.iter().map(|l| Light::square(l.position, l.color, size)).collect(),
+            None => self.lights.clone(),
+        };
+        let materials = self
+            .materials
+            .iter()
+            .map(|m| Phong {
+                specular_scale: options.specular_scale * options.profile.specular_scale(self.lights.len()),
+                roughness: options.roughness.unwrap_or(m.roughness),
+                ..*m
+            })
+            .collect();
+        let shutter = options.shutter.map_or_else(|| self.shutter(), |(t0, t1)| Interval::new(t0, t1));
+        let spp = options.spp.or(self.spp_hint.map(|s| s.max(1))).unwrap_or(options.settings.spp);
+        let settings = RenderSettings { spp, profile: options.profile, ..options.settings };
+        settings.validate().map_err(SceneError::Invalid)?;
+        if let Some([x0, y0, x1, y1]) = settings.crop {
+            if x1 > view.width || y1 > view.height {
+                return Err(SceneError::Invalid(format!(
+                    "crop {x0} {y0} {x1} {y1}: expected pixels inside the {} x {} image",
+                    view.width, view.height
+                )));
+            }
+        }
+        let pixels = view.width as u64 * view.height as u64;
+        let bytes = limits::render_bytes(self.primitive_count() as u64, pixels);
+        if bytes > limits::MAX_RENDER_BYTES {
+            return Err(SceneError::Invalid(format!(
+                "the render would take about {:.1} GiB ({} primitives, {} x {} pixels), more than the {} GiB allowed",
+                bytes as f64 / (1u64 << 30) as f64,
+                self.primitive_count(),
+                view.width,
+                view.height,
+                limits::MAX_RENDER_BYTES >> 30
+            )));
+        }
+        Ok(Prepared { view, lights, materials, shutter, settings })
+    }
+
+    /// What escaping rays see: the cubemap, if the scene has one that `options` use and it is
+    /// found, else the background colour (with a warning, or an error under `strict`).
+    fn background(&self, options: &RenderOptions, warnings: &mut Vec<Warning>) -> Result<Background, SceneError> {
+        let env = match (&self.env, options.use_env) {
+            (Some(name), true) => match raylume_scene::find_cubemap(name, &self.cubemap_dirs(&options.env_dirs)) {
+                Ok(_) => Some(load_cubemap(name, &self.cubemap_dirs(&options.env_dirs))?),
+                Err(why) if options.strict => {
+                    return Err(SceneError::Environment { name: name.clone(), message: why });
+                }
+                Err(why) => {
+                    warnings.push(Warning {
+                        file: String::new(),
+                        line: 0,
+                        column: 0,
+                        message: format!("environment map: {why}; escaping rays show the background colour"),
+                    });
+                    None
+                }
+            },
+            _ => None,
+        };
+        Ok(Background { color: self.background, env })
+    }
+
+    fn features_of(&self, p: &Prepared) -> Features {
+        let Prepared { view, lights, materials, shutter, settings } = p;
+        let moving = self
+            .objects
+            .iter()
+            .any(|o| matches!(o.shape, Shape::MovingSphere { center0, center1, .. } if center0 != center1));
+        Features {
+            antialiasing: settings.antialiasing(),
+            area_lights: lights.iter().any(Light::is_area),
+            depth_of_field: view.aperture > 0.0,
+            fuzzy_reflections: materials.iter().any(|m| m.roughness > 0.0 && m.ks > 0.0 && m.transmittance == 0.0),
+            motion_blur: moving && shutter.max > shutter.min,
+            transmission: materials.iter().any(|m| m.transmittance > 0.0),
+            lights: !lights.is_empty(),
+        }
+    }
+
+    fn render_passes(
+        &self,
+        options: &RenderOptions,
+        observer: &dyn Observer,
+        progressive: Option<OnPass>,
+    ) -> Result<RenderOutput, SceneError> {
+        let prepared = self.prepared(options)?;
+        let mut features = self.features_of(&prepared);
+        features.antialiasing |= progressive.is_some();
+        let mut warnings = Vec::new();
+        let background = self.background(options, &mut warnings)?;
+        let Prepared { view, lights, materials, shutter, settings } = prepared;
+        let Primitives { primitives, shading, vertex_normals } = self.primitives();
+        let kind = self.accel_kind(options);
+        let build = Instant::now();
+        let job = Job { view: &view, shutter, features, settings: &settings, observer, sampler: options.sampler };
+        let mut once = |_: &Progress| ControlFlow::Break(());
+        let on_pass: OnPass = progressive.unwrap_or(&mut once);
+        let parts = WorldParts { materials, shading, vertex_normals, lights, background };
+        let visitor = RenderWith { parts, build, job: &job, on_pass };
+        let (rendered, build_seconds) = with_accelerator(kind, primitives, shutter, options.grid, visitor)?;
+        let Rendered { film, stats, seconds: render_seconds, samples_per_pixel } = rendered;
+        Ok(RenderOutput {
+            film,
+            stats,
+            accel: kind,
+            features,
+            samples_per_pixel,
+            build_seconds,
+            render_seconds,
+            warnings,
+        })
+    }
+}
+
+/// An observer of any size behind one `dyn Observer`, so the render loops are compiled once
+/// whatever the caller observes with.
+struct Dyn<'a, O: ?Sized>(&'a O);
+
+impl<O: Observer + ?Sized> Observer for Dyn<'_, O> {
+    fn row_done(&self) {
+        self.0.row_done()
+    }
+
+    fn cancelled(&self) -> bool {
+        self.0.cancelled()
+    }
+}
+
+/// A world without its accelerator.
+struct WorldParts {
+    materials: Vec<Phong>,
+    shading: Vec<Shading>,
+    vertex_normals: Vec<[Vec3A; 3]>,
+    lights: Vec<Light>,
+    background: Background,
+}
+
+/// Renders a job once the accelerator is built: one monomorphised render loop per accelerator.
+struct RenderWith<'a, 'p> {
+    parts: WorldParts,
+    build: Instant,
+    job: &'a Job<'a>,
+    on_pass: OnPass<'p>,
+}
+
+impl AccelVisitor for RenderWith<'_, '_> {
+    /// What the passes made, and the seconds spent building the accelerator.
+    type Output = Result<(Rendered, f64), SceneError>;
+
+    fn visit<A: Accelerator>(self, accel: A) -> Self::Output {
+        let WorldParts { materials, shading, vertex_normals, lights, background } = self.parts;
+        let world = World { accel, materials, shading, vertex_normals, lights, background };
+        let build_seconds = self.build.elapsed().as_secs_f64();
+        Ok((self.job.with_camera(&world, self.on_pass)?, build_seconds))
+    }
+}
+
+/// The scene with a render's overrides applied.
+struct Prepared {
+    view: raylume_camera::View,
+    lights: Vec<Light>,
+    materials: Vec<Phong>,
+    shutter: Interval,
+    settings: RenderSettings,
+}
+
+/// One render's choices, turned into types one decision at a time.
+struct Job<'a> {
+    view: &'a raylume_camera::View,
+    shutter: Interval,
+    features: Features,
+    settings: &'a RenderSettings,
+    observer: &'a dyn Observer,
+    sampler: SamplerKind,
+}
+
+/// What [`RenderScene::render_progressive`] hands out after each pass.
+#[derive(Debug)]
+pub struct Progress<'a> {
+    /// The image so far: the sample-weighted mean of all passes.
+    pub film: &'a Film,
+    /// Samples per pixel so far (what the samplers drew, after rounding).
+    pub samples_per_pixel: u64,
+    /// Seconds spent rendering so far (building the accelerator excluded).
+    pub seconds: f64,
+    /// Index of the pass just finished.
+    pub pass: usize,
+}
+
+/// After each pass: `Continue(n)` renders another pass of `n` samples per pixel, `Break` stops.
+type OnPass<'a> = &'a mut dyn FnMut(&Progress) -> ControlFlow<(), u32>;
+
+impl Job<'_> {
+    fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>, on_pass: OnPass) -> Result<Rendered, SceneError> {
+        let open = self.shutter.min;
+        match (self.features.depth_of_field, self.features.motion_blur) {
+            (false, false) => self.with_sampler(world, &Pinhole::new(self.view).at_time(open), on_pass),
+            (true, false) => self.with_sampler(world, &ThinLens::new(self.view).at_time(open), on_pass),
+            (false, true) => self.with_sampler(world, &MotionBlur::new(Pinhole::new(self.view), self.shutter), on_pass),
+            (true, true) => self.with_sampler(world, &MotionBlur::new(ThinLens::new(self.view), self.shutter), on_pass),
+        }
+    }
+
+    fn with_sampler<A: Accelerator, C: Camera>(
+        &self,
+        world: &World<A, Phong>,
+        camera: &C,
+        on_pass: OnPass,
+    ) -> Result<Rendered, SceneError> {
+        let s = self.settings;
+        let strata = |spp: u32| RenderSettings { spp, ..*s }.strata();
+        let stratified = Whitted::<{ SoftShadows::STRATIFIED }>::with_soft_shadows(s);
+        match (self.features.antialiasing, self.features.area_lights, self.sampler) {
+            (false, false, _) => self.go(world, camera, |seed, _| Centre::new(seed), &Whitted::new(s), on_pass),
+            (false, true, _) => self.go(
+                world,
+                camera,
+                |seed, _| Centre::new(seed),
+                &Whitted::<{ SoftShadows::GRID }>::with_soft_shadows(s),
+                on_pass,
+            ),
+            (true, false, SamplerKind::Jittered) => {
+                self.go(world, camera, |seed, spp| Jittered::new(seed, strata(spp)), &Whitted::new(s), on_pass)
+            }
+            (true, true, SamplerKind::Jittered) => {
+                self.go(world, camera, |seed, spp| Jittered::new(seed, strata(spp)), &stratified, on_pass)
+            }
+            (true, false, SamplerKind::Independent) => {
+                self.go(world, camera, Independent::new, &Whitted::new(s), on_pass)
+            }
+            (true, true, SamplerKind::Independent) => self.go(world, camera, Independent::new, &stratified, on_pass),
+            (true, false, SamplerKind::Sobol) => self.go(world, camera, Sobol::new, &Whitted::new(s), on_pass),
+            (true, true, SamplerKind::Sobol) => self.go(world, camera, Sobol::new, &stratified, on_pass),
+        }
+    }
+
+    /// Renders passes, each with its own seed, and accumulates them weighted by samples, until
+    /// `on_pass` says stop or the observer cancels.
+    fn go<A: Accelerator, C: Camera, S: Sampler, I: Integrator>(
+        &self,
+        world: &World<A, Phong>,
+        camera: &C,
+        make_sampler: impl Fn(u64, u32) -> S,
+        integrator: &I,
+        on_pass: OnPass,
+    ) -> Result<Rendered, SceneError> {
+        let start = Instant::now();
+        let (mut acc, mut total, mut stats) = (None::<Film>, 0u64, RayStats::default());
+        let mut spp = self.settings.spp;
+        for pass in 0usize.. {
+            // Pass 0 keeps the seed, so a one-pass render is the plain render.
+            let seed = if pass == 0 {
+                self.settings.seed
+            } else {
+                raylume_integrator::sampler::splitmix(self.settings.seed.wrapping_add(pass as u64))
+            };
+            let settings = RenderSettings { spp, seed, ..*self.settings };
+            let sampler = make_sampler(seed, spp);
+            let n = sampler.samples_per_pixel() as u64;
+            let (film, s) = render(world, camera, &sampler, integrator, &settings, self.observer);
+            if self.observer.cancelled() {
+                return Err(SceneError::Cancelled);
+            }
+            stats += s;
+            acc = Some(match acc {
+                None => film,
+                Some(prev) => {
+                    let (wa, wb) = (total as f32 / (total + n) as f32, n as f32 / (total + n) as f32);
+                    let pixels = prev.pixels().iter().zip(film.pixels()).map(|(a, b)| *a * wa + *b * wb).collect();
+                    Film::from_pixels(film.width(), film.height(), pixels)
+                }
+            });
+            total += n;
+            let film = acc.as_ref().expect("a pass was rendered");
+            let progress = Progress { film, samples_per_pixel: total, seconds: start.elapsed().as_secs_f64(), pass };
+            match on_pass(&progress) {
+                ControlFlow::Break(()) => break,
+                ControlFlow::Continue(next) if (1..=limits::MAX_SPP).contains(&next) => spp = next,
+                ControlFlow::Continue(next) => {
+                    return Err(SceneError::Invalid(format!(
+                        "progressive pass of {next} samples per pixel: expected 1..={}",
+                        limits::MAX_SPP
+                    )));
+                }
+            }
+        }
+        let film = acc.expect("the loop renders a pass before it stops");
+        Ok(Rendered { film, stats, seconds: start.elapsed().as_secs_f64(), samples_per_pixel: total })
+    }
+}
+
+/// What the passes of a render made.
+struct Rendered {
+    film: Film,
+    stats: RayStats,
+    seconds: f64,
+    samples_per_pixel: u64,
+}

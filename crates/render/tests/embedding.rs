@@ -1,0 +1,165 @@
+//! What an embedder relies on: a scene file with a cubemap renders with default options and its own
+//! `spp`; renders report the samples they drew, can be observed and cancelled, and run progressively
+//! for as long as asked; OBJ normals shade meshes smoothly and survive the p3f writer.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+
+use raylume_geometry::{Vec3, Vec3A};
+use raylume_material::Phong;
+use raylume_render::{CancelToken, RenderOptions, RenderScene, SamplerKind};
+use raylume_scene::p3f::{LoadOptions, load, parse};
+use raylume_scene::{DEFAULT_SCENE, Scene, SceneBuilder, SceneError, Shape, obj};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("raylume-render-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn default_scene() -> Scene {
+    parse(DEFAULT_SCENE, "default", &LoadOptions::default()).unwrap().scene
+}
+
+fn small() -> RenderOptions {
+    RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() }
+}
+
+#[test]
+fn a_scene_file_with_a_cubemap_renders_with_default_options_and_its_own_spp() {
+    let dir = temp_dir("cubemap");
+    std::fs::create_dir(dir.join("sky")).unwrap();
+    for face in raylume_scene::CUBEMAP_FACES {
+        image::RgbImage::from_pixel(2, 2, image::Rgb([255, 0, 0]))
+            .save(dir.join("sky").join(format!("{face}.png")))
+            .unwrap();
+    }
+    let text = "spp 4\nenv sky\nbclr 0 0 0\nv from 0 0 5 at 0 0 0 up 0 1 0 angle 40 hither 0 resolution 8 6\n";
+    std::fs::write(dir.join("scene.p3f"), text).unwrap();
+    let loaded = load(dir.join("scene.p3f"), &LoadOptions::default()).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let out = loaded.scene.render(&RenderOptions::default(), &()).unwrap();
+    assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+    assert_eq!(out.samples_per_pixel, 4, "the scene's spp");
+    assert!(out.features.antialiasing);
+    assert!(out.film.pixels().iter().all(|&p| p == Vec3::X), "every ray escapes into the red sky");
+    let without = loaded.scene.render(&RenderOptions { use_env: false, ..RenderOptions::default() }, &()).unwrap();
+    assert!(without.film.pixels().iter().all(|&p| p == Vec3::ZERO), "bclr without the cubemap");
+}
+
+#[test]
+fn renders_report_the_samples_their_sampler_drew() {
+    let scene = default_scene();
+    let drawn = |sampler, spp| {
+        let options = RenderOptions { spp: Some(spp), sampler, ..small() };
+        scene.render(&options, &()).unwrap().samples_per_pixel
+    };
+    assert_eq!(drawn(SamplerKind::Sobol, 8), 8);
+    assert_eq!(drawn(SamplerKind::Independent, 5), 5);
+    assert_eq!(drawn(SamplerKind::Jittered, 8), 9);
+    assert_eq!(drawn(SamplerKind::Jittered, 1), 1);
+    let zero = RenderOptions { spp: Some(0), ..small() };
+    assert_eq!(scene.render(&zero, &()).unwrap_err().to_string(), "spp 0: expected 1..=65536 samples per pixel");
+}
+
+#[test]
+fn an_observer_hears_every_row_and_a_token_cancels_from_another_thread() {
+    let scene = default_scene();
+    let rows = std::sync::atomic::AtomicU32::new(0);
+    let count = || {
+        rows.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    };
+    scene.render(&small(), &count).unwrap();
+    assert_eq!(rows.load(std::sync::atomic::Ordering::Relaxed), 10);
+
+    // Cancelled while it runs (by the first finished row), the render stops with an error.
+    let cancel = CancelToken::new();
+    let stop = || cancel.cancel();
+    let big = RenderOptions { resolution: Some((64, 400)), ..RenderOptions::default() };
+    let result = scene.render(&big, &(stop, cancel.clone()));
+    assert!(matches!(result, Err(SceneError::Cancelled)), "{:?}", result.map(|o| o.stats));
+    assert_eq!(SceneError::Cancelled.to_string(), "the render was cancelled");
+
+    // A progressive render is cancelled the same way, and its callback is not called again.
+    let cancel = CancelToken::new();
+    let mut passes = 0;
+    let result = scene.render_progressive(&small(), &cancel, |_| {
+        passes += 1;
+        cancel.cancel();
+        ControlFlow::Continue(4)
+    });
+    assert!(matches!(result, Err(SceneError::Cancelled)));
+    assert_eq!(passes, 1);
+}
+
+#[test]
+fn a_progressive_render_runs_until_its_callback_stops_it() {
+    let scene = default_scene();
+    let options = RenderOptions { spp: Some(1), ..small() };
+    let mut seen = Vec::new();
+    let out = scene
+        .render_progressive(&options, &(), |p| {
+            seen.push(p.samples_per_pixel);
+            if p.pass == 5 { ControlFlow::Break(()) } else { ControlFlow::Continue(4) }
+        })
+        .unwrap();
+    assert_eq!(seen, [1, 5, 9, 13, 17, 21]);
+    assert_eq!(out.samples_per_pixel, 21);
+    let bad = scene.render_progressive(&options, &(), |_| ControlFlow::Continue(0)).unwrap_err();
+    assert_eq!(bad.to_string(), "progressive pass of 0 samples per pixel: expected 1..=65536");
+}
+
+/// A tilted square of two triangles under a light, with `normals` (per triangle corner) if any.
+fn panel(normals: Vec<[Vec3A; 3]>) -> Scene {
+    let vertices = vec![
+        Vec3A::new(-1.0, -1.0, 0.0),
+        Vec3A::new(1.0, -1.0, 0.0),
+        Vec3A::new(1.0, 1.0, 0.0),
+        Vec3A::new(-1.0, 1.0, 0.0),
+    ];
+    SceneBuilder::new()
+        .camera([0.0, 0.0, 4.0], [0.0; 3], [0.0, 1.0, 0.0], 40.0, 24, 24)
+        .light([0.0, 0.0, 20.0], [1.0; 3])
+        .material(Phong { diffuse: Vec3::ONE, kd: 0.9, ..Phong::default() })
+        .shape(Shape::Mesh { vertices, triangles: vec![[0, 1, 2], [0, 2, 3]], normals })
+        .build()
+        .unwrap()
+}
+
+#[test]
+fn mesh_normals_shade_smoothly_and_survive_the_writer() {
+    let options = RenderOptions { spp: Some(1), ..RenderOptions::default() };
+    let flat = panel(Vec::new()).render(&options, &()).unwrap().film;
+    let facing = panel(vec![[Vec3A::Z; 3]; 2]).render(&options, &()).unwrap().film;
+    assert_eq!(flat, facing, "normals equal to the face's shade as the face does");
+    let tilted = [Vec3A::new(-1.0, 0.0, 1.0), Vec3A::new(1.0, 0.0, 1.0), Vec3A::new(1.0, 0.0, 1.0)];
+    let bowl = panel(vec![tilted, [tilted[0], tilted[2], tilted[0]]]);
+    let smooth = bowl.render(&options, &()).unwrap().film;
+    assert_ne!(smooth, flat, "the corner normals change the shading");
+    // Written as p3f (patches) and read back, it renders the same.
+    let again = parse(&bowl.to_p3f(), "bowl.p3f", &LoadOptions::default()).unwrap().scene;
+    assert_eq!(again.render(&options, &()).unwrap().film, smooth);
+}
+
+#[test]
+fn obj_files_keep_their_normals_and_load_into_place() {
+    let dir = temp_dir("obj");
+    let path = dir.join("tri.obj");
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 1 1\nf 1//1 2//1 3//2\n").unwrap();
+    let Shape::Mesh { normals, .. } = obj::load(&path).unwrap() else { panic!("a mesh") };
+    assert_eq!(normals, [[Vec3A::Z, Vec3A::Z, Vec3A::new(0.0, 1.0, 1.0)]]);
+    let flat = obj::parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "flat.obj").unwrap();
+    assert!(matches!(flat, Shape::Mesh { ref normals, .. } if normals.is_empty()));
+
+    let place = obj::Transform { scale: 2.0, translate: Vec3A::new(1.0, 0.0, -1.0) };
+    let Shape::Mesh { vertices, normals: kept, .. } = obj::load_transformed(&path, place).unwrap() else {
+        panic!("a mesh")
+    };
+    assert_eq!(vertices, [Vec3A::new(1.0, 0.0, -1.0), Vec3A::new(3.0, 0.0, -1.0), Vec3A::new(1.0, 2.0, -1.0)]);
+    assert_eq!(kept, normals);
+    let bad = obj::load_transformed(&path, obj::Transform { scale: 0.0, ..obj::Transform::default() });
+    assert!(bad.unwrap_err().to_string().starts_with("obj transform: expected a positive scale"));
+    let missing = obj::parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nvn 0 0 0\n", "n.obj");
+    assert!(missing.is_ok());
+}
