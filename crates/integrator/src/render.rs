@@ -155,7 +155,7 @@ pub trait Observer: Sync {
 
 impl Observer for () {}
 
-impl<F: Fn() + Sync> Observer for F {
+impl<F: Fn() + Sync + ?Sized> Observer for F {
     fn row_done(&self) {
         self()
     }
@@ -320,6 +320,9 @@ mod tests {
         };
         let (_, stats) = render(&world, &camera, &Centre::new(0), &Whitted::new(&settings), &settings, &count);
         assert_eq!((rows.load(Ordering::Relaxed), stats.camera), (6, 48));
+        let boxed: &(dyn Fn() + Sync) = &count;
+        render(&world, &camera, &Centre::new(0), &Whitted::new(&settings), &settings, boxed);
+        assert_eq!(rows.load(Ordering::Relaxed), 12, "a closure behind a reference to dyn Fn observes too");
 
         let cancel = CancelToken::new();
         cancel.cancel();
