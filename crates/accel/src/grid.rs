@@ -10,7 +10,7 @@ use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 pub struct GridParams {
     /// Density factor: the grid has about `k * N` cells for N primitives (cells per axis
     /// `extent * cbrt(k N / V)`, the course's formula). p3f.md gives no value; 2 is the classic one
-    /// (Shirley; measured in docs/PERFORMANCE.md).
+    /// (Shirley).
     pub k: f32,
     /// Whether to test a primitive that spans several cells once per ray (true) or once per cell.
     pub mailbox: bool,
