@@ -28,11 +28,8 @@ fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
     let (width, height) = img.dimensions();
     let mut texels = Vec::with_capacity(width as usize * height as usize);
     // Row 0 of the face is the image's bottom row.
-    for row in (0..height).rev() {
-        for col in 0..width {
-            let p = img.get_pixel(col, row).0;
-            texels.push(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0);
-        }
+    for row in img.as_raw().chunks_exact(width as usize * 3).rev() {
+        texels.extend(row.chunks_exact(3).map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0));
     }
     Ok(CubemapFace { width, height, texels })
 }
