@@ -153,3 +153,34 @@ impl Interval {
         if s == 1.0 { self } else { self.scaled(1.0 / s) }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every valid direction has a canonical form whose factor is exact and representable, from the
+    /// smallest normal largest component to the largest one below `2^127`; directions beyond are not
+    /// valid, and canonical directions are their own form.
+    #[test]
+    fn canonical_forms_cover_every_valid_direction() {
+        for e in -126..=126 {
+            for m in [1.0f32, 1.5, 1.999_999_9] {
+                let dir = Vec3A::new(0.25 * m * 2f32.powi(e), -m * 2f32.powi(e), 0.0);
+                let ray = Ray::new(Vec3A::new(1.0, 2.0, 3.0), dir);
+                let (c, s) = ray.canonical().unwrap_or_else(|| panic!("2^{e} * {m}"));
+                assert!(c.is_canonical(), "2^{e} * {m}");
+                let power_of_two = (s.is_normal() && s.to_bits() & 0x7f_ffff == 0) || s == f32::from_bits(1 << 22);
+                assert!(power_of_two, "2^{e} * {m}: factor {s}");
+                assert_eq!(c.dir, dir * s, "2^{e} * {m}");
+                assert_eq!(c.at(2.0), ray.at(2.0 * s), "2^{e} * {m}: parameters scale by the factor");
+                assert!((0.5..1.0).contains(&c.dir.y.abs()), "2^{e} * {m}");
+            }
+        }
+        let huge = Ray::new(Vec3A::ZERO, Vec3A::new(0.0, 2f32.powi(127), 0.0));
+        assert!(!huge.is_valid() && huge.canonical().is_none());
+        let unit = Ray::new(Vec3A::ZERO, Vec3A::new(0.6, 0.0, -0.8));
+        assert_eq!(unit.canonical(), Some((unit, 1.0)));
+        let nan_origin = Ray::new(Vec3A::new(f32::NAN, 0.0, 0.0), Vec3A::new(0.6, 0.0, -0.8));
+        assert!(nan_origin.is_canonical() && nan_origin.canonical().is_none());
+    }
+}
