@@ -661,10 +661,12 @@ impl<P: Intersect> Bvh<P> {
 }
 
 impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
+    #[inline(always)]
     fn closest_hit_tally<T: Tally>(&self, ray: &Ray, t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         crate::closest_on_canonical(ray, t_range, |ray, t_range| self.closest_canonical(ray, t_range, tally))
     }
 
+    #[inline(always)]
     fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| self.occluded_canonical(ray, t_max, tally))
     }
