@@ -4,21 +4,33 @@
 //! ([`BvhKernel::Portable`]). Triangles live in their own tree, in packets of four laid out for the
 //! watertight test; other bounded shapes in a second (four-wide) tree; unbounded ones (planes) outside
 //! both.
+//!
+//! The parts, each using only those listed after it:
+//! - this file: [`Bvh`], its constructor and its [`Accelerator`] queries;
+//! - `avx2`: the AVX2 kernel: eight-wide box tests, pushes and the leaves' filter and exact test;
+//! - `stream`: packets of coherent rays walked down the triangles' tree together;
+//! - `leaf`: the triangles' leaf tests: the [`Filter`](leaf::Filter) that finds a leaf's candidates
+//!   ([`Portable`](leaf::Portable) here), the exact test of the candidates, the leaf tests of a walk;
+//! - `triangles`: the leaves' layout (packets of four triangles) and the four-lane candidate filter;
+//! - `wide`: wide nodes, the collapse of the binary tree into them, the box tests and the walk;
+//! - `build`: the binary build.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod build;
+mod leaf;
 mod stream;
 mod triangles;
 mod wide;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
+use leaf::{ClosestLeaf, OccludedLeaf, Portable};
 use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
-use raylume_intersect::{Intersect, ShearedRay, TriangleHit, has_unit_normal};
+use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
-use triangles::{Exact, Filter, LANES, Leaf, Portable};
-use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref, set_bits};
+use triangles::{LANES, Leaf};
+use wide::{BoxRay, Frustum, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -77,7 +89,9 @@ impl Triangles {
                 leaves.answer(rays, negative, query)
             }
             #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(simd, tree) => avx2::answer_packet(*simd, tree, self, rays, negative, query),
+            TriangleTree::Avx2(simd, tree) => {
+                avx2::answer_packet(*simd, tree, &self.leaves, &self.leaf_bounds, rays, negative, query)
+            }
         }
     }
 
@@ -254,214 +268,6 @@ impl<P: Intersect + Clone> Bvh<P> {
     }
 }
 
-/// Tests the candidate `lanes` of leaf `first` for the closest hit within `range`, keeping it in
-/// `found` (the hit, its leaf and candidate bit); returns the new end of the range.
-#[inline(always)]
-fn closest_in_leaf<F: Filter>(
-    filter: F,
-    leaves: &[Leaf],
-    first: usize,
-    lanes: u32,
-    ray: &ShearedRay,
-    range: Interval,
-    found: &mut Option<(TriangleHit, u32, u32)>,
-) -> f32 {
-    if lanes == 0 {
-        range.max
-    } else {
-        let test = Candidates { leaf: &leaves[first], leaves, first, lanes, ray, range, found };
-        closest_of_candidates(ClosestOfCandidates { filter, test })
-    }
-}
-
-/// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
-/// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
-#[inline(never)]
-fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
-    test.filter.exact(test)
-}
-
-/// A closest-hit test of a leaf's candidates: the candidate `lanes` of `leaf` (leaf number `first`),
-/// the ray, its range, and the closest hit so far with its leaf and candidate bit.
-struct Candidates<'a> {
-    leaf: &'a Leaf,
-    /// Every leaf, to read the primitive of the hit so far (ties go to the lowest primitive index).
-    leaves: &'a [Leaf],
-    first: usize,
-    lanes: u32,
-    ray: &'a ShearedRay,
-    range: Interval,
-    found: &'a mut Option<(TriangleHit, u32, u32)>,
-}
-
-impl Candidates<'_> {
-    /// Decides candidate `bit` by the scalar watertight test within `range`, keeping a hit in `found`
-    /// and narrowing `range` to it.
-    #[inline(always)]
-    fn decide(&mut self, bit: u32, range: &mut Interval) {
-        if let Some(h) = raylume_intersect::watertight_decide(&self.leaf.triangle(bit), self.ray, *range) {
-            self.keep(bit, h, range);
-        }
-    }
-
-    /// Keeps `h`, a hit of candidate `bit` within `range`, if it beats the hit so far: a hit at the
-    /// same distance replaces it only if its primitive comes first.
-    #[inline(always)]
-    fn keep(&mut self, bit: u32, h: TriangleHit, range: &mut Interval) {
-        let wins = match *self.found {
-            Some((f, leaf, b)) if f.t == h.t => self.leaf.id(bit) < self.leaves[leaf as usize].id(b),
-            _ => true,
-        };
-        if wins {
-            *range = range.with_max(h.t);
-            *self.found = Some((h, self.first as u32, bit));
-        }
-    }
-}
-
-/// [`Filter::closest_of_candidates`] by the scalar watertight test of each candidate in turn.
-#[inline(always)]
-fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
-    let mut range = test.range;
-    for bit in set_bits(test.lanes) {
-        test.decide(bit, &mut range);
-    }
-    range.max
-}
-
-/// [`closest_of_candidates`]' test and the filter that compiles it.
-struct ClosestOfCandidates<'a, F> {
-    filter: F,
-    test: Candidates<'a>,
-}
-
-impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
-    type Output = f32;
-
-    #[inline(always)]
-    fn run(self) -> f32 {
-        self.filter.closest_of_candidates(self.test)
-    }
-}
-
-/// Whether any triangle among the candidate `lanes` of `leaf` is hit within `range`, by the scalar test.
-#[inline(always)]
-fn occluded_in_leaf<F: Filter>(filter: F, leaf: &Leaf, lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
-    lanes != 0 && any_candidate_hit(filter, AnyCandidateHit { leaf, lanes, ray, range })
-}
-
-/// [`occluded_in_leaf`] of a leaf with candidates; not inlined, as [`closest_of_candidates`].
-#[inline(never)]
-fn any_candidate_hit<F: Filter>(filter: F, test: AnyCandidateHit) -> bool {
-    filter.exact(test)
-}
-
-/// The arguments of [`any_candidate_hit`].
-struct AnyCandidateHit<'a> {
-    leaf: &'a Leaf,
-    lanes: u32,
-    ray: &'a ShearedRay,
-    range: Interval,
-}
-
-impl Exact for AnyCandidateHit<'_> {
-    type Output = bool;
-
-    #[inline(always)]
-    fn run(self) -> bool {
-        let Self { leaf, lanes, ray, range } = self;
-        set_bits(lanes).any(|bit| raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range))
-    }
-}
-
-/// One ray's view of the triangles' leaves: their candidates for the ray, with the ray's watertight
-/// frame prepared at the first leaf it reaches (many rays reach none).
-struct RayLeaves<'a, F> {
-    filter: F,
-    leaves: &'a [Leaf],
-    ray: &'a Ray,
-    sheared: Option<Option<ShearedRay>>,
-}
-
-impl<'a, F: Filter> RayLeaves<'a, F> {
-    fn new(filter: F, leaves: &'a [Leaf], ray: &'a Ray) -> Self {
-        Self { filter, leaves, ray, sheared: None }
-    }
-
-    /// The leaf's index, its number of triangles and the prepared ray; `None` for a ray without a
-    /// watertight frame (it hits no triangle).
-    #[inline(always)]
-    fn prepared<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, usize, &ShearedRay)> {
-        let (first, count) = leaf_range(leaf);
-        for _ in 0..count {
-            tally.tested();
-        }
-        let sheared = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)).as_ref()?;
-        Some((first, count, sheared))
-    }
-
-    /// Starts loading leaf `leaf`'s triangles into the cache.
-    #[inline(always)]
-    fn prefetch(&self, leaf: u32) {
-        if let Some(l) = self.leaves.get(leaf_range(leaf).0) {
-            self.filter.prefetch(l);
-        }
-    }
-
-    /// The leaf's index, its candidate lanes and the prepared ray; `None` as [`RayLeaves::prepared`].
-    #[inline(always)]
-    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
-        let (filter, leaves) = (self.filter, self.leaves);
-        let (first, count, sheared) = self.prepared(leaf, tally)?;
-        Some((first, filter.leaf_candidates(&leaves[first], count, sheared), sheared))
-    }
-}
-
-/// The triangles' leaf test of one ray's closest-hit walk.
-struct ClosestLeaf<'a, F> {
-    leaves: RayLeaves<'a, F>,
-    t_min: f32,
-    /// The closest hit so far, its leaf and candidate bit.
-    found: Option<(TriangleHit, u32, u32)>,
-}
-
-impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
-    #[inline(always)]
-    fn prefetch(&self, leaf: u32) {
-        self.leaves.prefetch(leaf);
-    }
-
-    #[inline(always)]
-    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
-        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
-        closest_in_leaf(filter, leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
-    }
-}
-
-/// The triangles' leaf test of one ray's any-hit walk within `(0, t_max)`: ends the walk at the first
-/// hit.
-struct OccludedLeaf<'a, F> {
-    leaves: RayLeaves<'a, F>,
-    hit: bool,
-}
-
-impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
-    #[inline(always)]
-    fn prefetch(&self, leaf: u32) {
-        self.leaves.prefetch(leaf);
-    }
-
-    #[inline(always)]
-    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
-        let Some((first, count, sheared)) = self.leaves.prepared(leaf, tally) else { return t_max };
-        // An any-hit walk's range ends where the query's does until the first hit, which ends the walk.
-        self.hit = filter.leaf_occluded(&leaves[first], count, sheared, Interval::new(0.0, t_max));
-        if self.hit { f32::NEG_INFINITY } else { t_max }
-    }
-}
-
 impl<P> Bvh<P> {
     /// Number of nodes in the trees.
     pub fn node_count(&self) -> usize {
@@ -608,15 +414,15 @@ impl<P: Intersect> Bvh<P> {
             let (t_min, t_max) = (t_range.min, t_range.max);
             let found = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(Portable, leaves, ray), t_min, found: None };
+                    let mut leaf = ClosestLeaf::new(Portable, leaves, ray, t_min);
                     tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
-                    leaf.found
+                    leaf.found()
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(*simd, leaves, ray), t_min, found: None };
+                    let mut leaf = ClosestLeaf::new(*simd, leaves, ray, t_min);
                     avx2::closest::<false, _, _>(*simd, tree, ray, (t_min, t_max), tally, &mut leaf);
-                    leaf.found
+                    leaf.found()
                 }
             };
             if let Some((h, leaf, bit)) = found {
@@ -641,15 +447,15 @@ impl<P: Intersect> Bvh<P> {
         if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
             let hit = match tree {
                 TriangleTree::Portable(tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, leaves, ray), hit: false };
+                    let mut leaf = OccludedLeaf::new(Portable, leaves, ray);
                     tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
-                    leaf.hit
+                    leaf.hit()
                 }
                 #[cfg(target_arch = "x86_64")]
                 TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, leaves, ray), hit: false };
+                    let mut leaf = OccludedLeaf::new(*simd, leaves, ray);
                     avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
-                    leaf.hit
+                    leaf.hit()
                 }
             };
             if hit {

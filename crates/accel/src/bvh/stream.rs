@@ -7,8 +7,8 @@ use glam::Vec4;
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
-use super::closest_in_leaf;
-use super::triangles::{Filter, Leaf};
+use super::leaf::{Filter, closest_in_leaf};
+use super::triangles::Leaf;
 use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals, set_bits};
 
 /// Rays per packet.
