@@ -10,23 +10,41 @@ use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 use std::arch::x86_64::{__m128, __m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
 
+use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
 use super::stream::{Leaves, PacketQuery};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
 use crate::Tally;
 
-/// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
-#[inline(always)]
-pub(super) fn closest<const ANY: bool, T: Tally, L: LeafTest<T>>(
-    simd: V3,
-    tree: &WideTree<8>,
-    ray: &Ray,
-    t_range: (f32, f32),
-    tally: &mut T,
-    leaf: &mut L,
-) {
-    simd.vectorize(Walk::<ANY, T, L> { simd, tree, ray, t_range, tally, leaf })
+/// The AVX2 kernel: eight-wide trees, their walks compiled with AVX2 enabled.
+impl Kernel<8> for V3 {
+    const KIND: BvhKernel = BvhKernel::Avx2;
+
+    /// [`WideTree::walk`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
+    #[inline(always)]
+    fn walk<const ANY: bool, T: Tally, L: LeafTest<T>>(
+        self,
+        tree: &WideTree<8>,
+        ray: &Ray,
+        t_range: (f32, f32),
+        tally: &mut T,
+        leaf: &mut L,
+    ) {
+        self.vectorize(Walk::<ANY, T, L> { simd: self, tree, ray, t_range, tally, leaf })
+    }
+
+    #[inline(always)]
+    fn answer_packet(
+        self,
+        tree: &WideTree<8>,
+        tris: &Triangles,
+        rays: &[Ray],
+        negative: [bool; 3],
+        query: PacketQuery,
+    ) {
+        answer_packet(self, tree, &tris.leaves, &tris.leaf_bounds, rays, negative, query)
+    }
 }
 
 /// The walk's arguments: a function object whose call is always inlined into the AVX2 function that
@@ -47,7 +65,7 @@ impl<const ANY: bool, T: Tally, L: LeafTest<T>> pulp::NullaryFnOnce for Walk<'_,
     #[inline(always)]
     fn call(self) {
         let (t_min, t_max) = self.t_range;
-        self.tree.closest::<ANY, T>(&BoxRay8::new(self.simd, self.ray), t_min, t_max, self.tally, self.leaf)
+        self.tree.walk::<ANY, T>(&BoxRay8::new(self.simd, self.ray), t_min, t_max, self.tally, self.leaf)
     }
 }
 
@@ -269,7 +287,7 @@ impl NodeTest<8> for Frustum8 {
 
 /// [`Leaves::answer`] for a packet of `rays` (signs `negative`) down the eight-wide tree, compiled
 /// with AVX2 enabled.
-pub(super) fn answer_packet(
+fn answer_packet(
     simd: V3,
     tree: &WideTree<8>,
     leaves: &[Leaf],

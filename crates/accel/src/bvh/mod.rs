@@ -8,6 +8,8 @@
 //! The parts, each using only those listed after it:
 //! - this file: [`Bvh`], its constructor and its [`Accelerator`] queries;
 //! - `avx2`: the AVX2 kernel: eight-wide box tests, pushes and the leaves' filter and exact test;
+//! - `kernel`: the triangles' tree and [`BvhKernel`]: each query written once over a kernel, and the
+//!   one match that picks the kernel (`TriangleTree::visit`);
 //! - `stream`: packets of coherent rays walked down the triangles' tree together;
 //! - `leaf`: the triangles' leaf tests: the [`Filter`](leaf::Filter) that finds a leaf's candidates
 //!   ([`Portable`](leaf::Portable) here), the exact test of the candidates, the leaf tests of a walk;
@@ -18,6 +20,7 @@
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod build;
+mod kernel;
 mod leaf;
 mod stream;
 mod triangles;
@@ -25,123 +28,22 @@ mod wide;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
-use leaf::{ClosestLeaf, OccludedLeaf, Portable};
+pub use kernel::BvhKernel;
+use kernel::Triangles;
 use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
-use triangles::{LANES, Leaf};
-use wide::{BoxRay, Frustum, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use triangles::Leaf;
+use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
 /// Largest leaf of primitives other than triangles.
 const MAX_LEAF: usize = 4;
-/// Largest leaf of triangles: two packets.
-const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
 const PREFETCH_BYTES: usize = 8 << 20;
-
-/// The triangles' tree: its nodes, each leaf's triangles and each leaf's box (the packet walk tests
-/// it for four rays at a time).
-#[derive(Clone, Debug)]
-struct Triangles {
-    tree: TriangleTree,
-    leaves: Vec<Leaf>,
-    leaf_bounds: Vec<[f32; 6]>,
-}
-
-/// The triangles' nodes, as the kernel walks them.
-#[derive(Clone, Debug)]
-enum TriangleTree {
-    /// Four-wide nodes, for [`BvhKernel::Portable`].
-    Portable(WideTree<4>),
-    /// Eight-wide nodes and the token that proves the CPU runs [`BvhKernel::Avx2`].
-    #[cfg(target_arch = "x86_64")]
-    Avx2(pulp::x86::V3, WideTree<8>),
-}
-
-impl TriangleTree {
-    /// [`WideTree::prefetch_when_larger`] of the kernel's tree (the portable kernel has no prefetch).
-    fn prefetch_when_larger(&mut self, bytes: usize, threshold: usize) {
-        match self {
-            TriangleTree::Portable(tree) => tree.prefetch_when_larger(bytes, threshold),
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(_, tree) => tree.prefetch_when_larger(bytes, threshold),
-        }
-    }
-}
-
-impl Triangles {
-    /// Answers `query` for a packet of `rays` with the directions' signs `negative`, with the tree's
-    /// kernel.
-    fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
-        match &self.tree {
-            TriangleTree::Portable(tree) => {
-                let leaves = stream::Leaves {
-                    tree,
-                    frustum: Frustum::new(rays, negative),
-                    filter: Portable,
-                    leaves: &self.leaves,
-                    leaf_bounds: &self.leaf_bounds,
-                };
-                leaves.answer(rays, negative, query)
-            }
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(simd, tree) => {
-                avx2::answer_packet(*simd, tree, &self.leaves, &self.leaf_bounds, rays, negative, query)
-            }
-        }
-    }
-
-    fn bounds(&self) -> Aabb {
-        match &self.tree {
-            TriangleTree::Portable(tree) => tree.bounds(),
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(_, tree) => tree.bounds(),
-        }
-    }
-
-    /// Bytes of the nodes, the leaves and their boxes.
-    fn bytes(&self) -> usize {
-        self.nodes().1
-            + std::mem::size_of_val(self.leaves.as_slice())
-            + std::mem::size_of_val(self.leaf_bounds.as_slice())
-    }
-
-    /// Nodes and their bytes.
-    fn nodes(&self) -> (usize, usize) {
-        match &self.tree {
-            TriangleTree::Portable(tree) => (tree.node_count(), tree.bytes()),
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(_, tree) => (tree.node_count(), tree.bytes()),
-        }
-    }
-}
-
-/// The kernel a [`Bvh`] answers queries with over its triangles ([`Bvh::kernel`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BvhKernel {
-    /// Nodes of four children tested in 128-bit registers, leaves filtered four triangles at a time:
-    /// baseline x86-64 (SSE2) and every other target.
-    Portable,
-    /// Nodes of eight children tested in 256-bit registers, leaves of eight triangles filtered at
-    /// once: the choice of [`Bvh::new`] on x86-64 CPUs with AVX2 (with FMA, BMI1/2 and LZCNT: the
-    /// x86-64-v3 level). The shapes other than triangles keep the portable kernel.
-    Avx2,
-}
-
-impl BvhKernel {
-    /// The fastest kernel this CPU runs.
-    pub fn best() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        if pulp::x86::V3::is_available() {
-            return Self::Avx2;
-        }
-        Self::Portable
-    }
-}
 
 /// A BVH over primitives. Its triangles are walked by the fastest kernel the CPU runs
 /// ([`Bvh::kernel`]); every kernel finds the same hits (ties between primitives at one distance aside).
@@ -198,6 +100,12 @@ impl<P: Intersect + Clone> Bvh<P> {
     /// # Panics
     /// With more than 2^28 bounded primitives of one kind (triangles, or the others).
     pub fn with_kernel(prims: Vec<P>, shutter: Interval, method: BvhBuild, kernel: BvhKernel) -> Self {
+        Self::build(prims, shutter, method, kernel, PREFETCH_BYTES)
+    }
+
+    /// [`Bvh::with_kernel`], with walks that prefetch the next subtree when the triangles' structure
+    /// is larger than `prefetch_bytes`.
+    fn build(prims: Vec<P>, shutter: Interval, method: BvhBuild, kernel: BvhKernel, prefetch_bytes: usize) -> Self {
         let mut tri_items = Vec::new();
         let mut tris = Vec::new();
         let mut items = Vec::new();
@@ -222,36 +130,8 @@ impl<P: Intersect + Clone> Bvh<P> {
             // Finite but empty bounds: nothing can be hit.
         }
         assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
-        let triangles = (!tri_items.is_empty()).then(|| {
-            #[cfg(target_arch = "x86_64")]
-            let simd = pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2);
-            #[cfg(not(target_arch = "x86_64"))]
-            let simd: Option<()> = {
-                // Only the portable kernel on this target.
-                let _ = kernel;
-                None
-            };
-            // The SAH counts a leaf's cost in the blocks its filter tests at once: eight triangles in AVX
-            // registers, else four.
-            let block = if simd.is_some() { 2 * LANES } else { LANES };
-            let bin = build_binary(&mut tri_items, method, block, MAX_TRIANGLE_LEAF);
-            let mut leaves = Vec::with_capacity(tri_items.len().div_ceil(MAX_TRIANGLE_LEAF));
-            let mut leaf_bounds = Vec::with_capacity(leaves.capacity());
-            let leaf = |first: usize, count: usize, bounds: Aabb| {
-                leaves.push(Leaf::new(tri_items[first..first + count].iter().map(|it| tris[it.index as usize])));
-                let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
-                leaf_bounds.push([min[0], min[1], min[2], max[0], max[1], max[2]]);
-                leaf_ref(leaves.len() - 1, count)
-            };
-            let tree = match simd {
-                #[cfg(target_arch = "x86_64")]
-                Some(simd) => TriangleTree::Avx2(simd, WideTree::collapse(&bin, leaf)),
-                _ => TriangleTree::Portable(WideTree::collapse(&bin, leaf)),
-            };
-            let mut triangles = Triangles { tree, leaves, leaf_bounds };
-            triangles.tree.prefetch_when_larger(triangles.bytes(), PREFETCH_BYTES);
-            triangles
-        });
+        let triangles =
+            (!tri_items.is_empty()).then(|| Triangles::build(&mut tri_items, &tris, method, kernel, prefetch_bytes));
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
             let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
@@ -271,16 +151,13 @@ impl<P: Intersect + Clone> Bvh<P> {
 impl<P> Bvh<P> {
     /// Number of nodes in the trees.
     pub fn node_count(&self) -> usize {
-        self.triangles.as_ref().map_or(0, |t| t.nodes().0) + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+        self.triangles.as_ref().map_or(0, Triangles::node_count)
+            + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
     }
 
     /// The kernel of single-ray and batch queries over the triangles.
     pub fn kernel(&self) -> BvhKernel {
-        match self.triangles.as_ref().map(|t| &t.tree) {
-            #[cfg(target_arch = "x86_64")]
-            Some(TriangleTree::Avx2(..)) => BvhKernel::Avx2,
-            _ => BvhKernel::Portable,
-        }
+        self.triangles.as_ref().map_or(BvhKernel::Portable, Triangles::kernel)
     }
 }
 
@@ -297,24 +174,18 @@ impl<P: Intersect> Bvh<P> {
             }
         }
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest::<false, _>(
-                &BoxRay::new(ray),
-                t_range.min,
-                t_range.max,
-                tally,
-                &mut |leaf, t_max, tally: &mut T| {
-                    let (first, count) = leaf_range(leaf);
-                    let mut range = t_range.with_max(t_max);
-                    for i in first..first + count {
-                        tally.tested();
-                        if let Some(hit) = prims[i].intersect_canonical(ray, range) {
-                            range = range.with_max(hit.t);
-                            best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
-                        }
+            tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {
+                let (first, count) = leaf_range(leaf);
+                let mut range = t_range.with_max(t_max);
+                for i in first..first + count {
+                    tally.tested();
+                    if let Some(hit) = prims[i].intersect_canonical(ray, range) {
+                        range = range.with_max(hit.t);
+                        best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
                     }
-                    range.max
-                },
-            );
+                }
+                range.max
+            });
         }
         best
     }
@@ -372,9 +243,9 @@ impl<P: Intersect> Bvh<P> {
         let (n, t_min) = (rays.len(), t_range.min);
         tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
         for (hit, found) in hits.iter_mut().zip(found) {
-            if let Some((h, leaf, bit)) = found {
-                let leaf = &tris.leaves[leaf as usize];
-                *hit = Some(PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) });
+            if let Some(found) = found {
+                let (h, primitive) = tris.hit(found);
+                *hit = Some(PrimitiveHit { hit: h, primitive });
             }
         }
     }
@@ -410,27 +281,10 @@ impl<P: Intersect> Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
-            let (t_min, t_max) = (t_range.min, t_range.max);
-            let found = match tree {
-                TriangleTree::Portable(tree) => {
-                    let mut leaf = ClosestLeaf::new(Portable, leaves, ray, t_min);
-                    tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
-                    leaf.found()
-                }
-                #[cfg(target_arch = "x86_64")]
-                TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = ClosestLeaf::new(*simd, leaves, ray, t_min);
-                    avx2::closest::<false, _, _>(*simd, tree, ray, (t_min, t_max), tally, &mut leaf);
-                    leaf.found()
-                }
-            };
-            if let Some((h, leaf, bit)) = found {
-                let leaf = &leaves[leaf as usize];
-                best = PrimitiveHit::closer(
-                    best,
-                    PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) },
-                );
+        if let Some(tris) = &self.triangles {
+            if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
+                let (hit, primitive) = tris.hit(found);
+                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive });
             }
         }
         best
@@ -444,23 +298,10 @@ impl<P: Intersect> Bvh<P> {
         }) {
             return true;
         }
-        if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
-            let hit = match tree {
-                TriangleTree::Portable(tree) => {
-                    let mut leaf = OccludedLeaf::new(Portable, leaves, ray);
-                    tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
-                    leaf.hit()
-                }
-                #[cfg(target_arch = "x86_64")]
-                TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = OccludedLeaf::new(*simd, leaves, ray);
-                    avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
-                    leaf.hit()
-                }
-            };
-            if hit {
-                return true;
-            }
+        if let Some(tris) = &self.triangles
+            && tris.occluded(ray, t_max, tally)
+        {
+            return true;
         }
         self.occluded_other(ray, t_max, tally)
     }
@@ -564,10 +405,9 @@ mod tests {
             .collect();
         let rays: Vec<Ray> = (0..20_000).map(|_| Ray::new(point(20.0), point(10.0) - point(20.0))).collect();
         for kernel in [BvhKernel::Portable, BvhKernel::best()] {
-            let plain = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
-            let mut prefetching = plain.clone();
-            let Some(triangles) = prefetching.triangles.as_mut() else { panic!("triangles") };
-            triangles.tree.prefetch_when_larger(1, 0);
+            let still = Interval::new(0.0, 0.0);
+            let plain = Bvh::build(prims.clone(), still, BvhBuild::Sah, kernel, usize::MAX);
+            let prefetching = Bvh::build(prims.clone(), still, BvhBuild::Sah, kernel, 0);
             let mut hits = 0;
             for ray in &rays {
                 let (a, b) =

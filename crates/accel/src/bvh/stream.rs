@@ -240,6 +240,6 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
         let state = Rays::new(rays, t_max);
         let start = state.t_max();
         let mut leaf = PacketLeaf { state, leaf_bounds: self.leaf_bounds, negative, t_min, test };
-        self.tree.closest::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
+        self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
     }
 }

@@ -410,11 +410,25 @@ impl<const W: usize> WideTree<W> {
         self.bounds
     }
 
-    /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
-    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`; with
-    /// `ANY`, the walk stops as soon as it returns a `t_max` below `t_min`.
+    /// The closest-hit walk: [`WideTree::walk`] without `ANY`.
     #[inline(always)]
-    pub fn closest<const ANY: bool, T: Tally>(
+    pub fn closest<T: Tally>(
+        &self,
+        ray: &impl NodeTest<W>,
+        t_min: f32,
+        t_max: f32,
+        tally: &mut T,
+        leaf: &mut impl LeafTest<T>,
+    ) {
+        self.walk::<false, T>(ray, t_min, t_max, tally, leaf)
+    }
+
+    /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
+    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`. With
+    /// `ANY`, an any-hit walk: children are taken in slot order (see [`NodeTest::push`]) and the walk
+    /// stops as soon as `leaf` returns a `t_max` below `t_min`.
+    #[inline(always)]
+    pub fn walk<const ANY: bool, T: Tally>(
         &self,
         ray: &impl NodeTest<W>,
         t_min: f32,
@@ -523,7 +537,7 @@ impl<const W: usize> WideTree<W> {
         mut leaf: impl FnMut(u32, &mut T) -> bool,
     ) -> bool {
         let mut hit = false;
-        self.closest::<true, T>(ray, 0.0, t_max, tally, &mut |r, t, tally: &mut T| {
+        self.walk::<true, T>(ray, 0.0, t_max, tally, &mut |r, t, tally: &mut T| {
             if leaf(r, tally) {
                 hit = true;
                 f32::NEG_INFINITY
