@@ -2,14 +2,14 @@
 //! ([`TriangleTree::visit`]): each query is written once, generic over a [`Kernel`], and compiled
 //! once per kernel, with no dynamic dispatch per ray.
 
-use raylume_geometry::{Aabb, Ray, Triangle};
+use raylume_geometry::{Aabb, Ray, Triangle, Vec3A};
 use raylume_intersect::{Hit, TriangleHit};
 
 use super::build::{BuildItem, BvhBuild, build_binary};
 use super::leaf::{ClosestLeaf, Filter, OccludedLeaf, Portable};
 use super::stream::{self, PacketQuery};
 use super::triangles::{LANES, Leaf};
-use super::wide::{BoxRay, Frustum, LeafTest, WideTree, leaf_ref};
+use super::wide::{BoxRay, Frustum, LeafTest, WideTree, leaf_range, leaf_ref};
 use crate::Tally;
 
 /// Largest leaf of triangles: two packets.
@@ -229,6 +229,21 @@ impl Triangles {
         self.tree.visit(Summary).3
     }
 
+    /// Checks the tree ([`WideTree::validate`]) and its leaves: each leaf reached once, holding one to
+    /// [`MAX_TRIANGLE_LEAF`] triangles, its box inside the one its parent holds for it and around its
+    /// triangles. Pushes the input index of each triangle onto `ids`.
+    pub fn validate(&self, ids: &mut Vec<u32>) -> Result<(), String> {
+        if self.leaf_bounds.len() != self.leaves.len() {
+            return Err(format!("{} leaf boxes for {} leaves", self.leaf_bounds.len(), self.leaves.len()));
+        }
+        let mut reached = vec![0usize; self.leaves.len()];
+        self.tree.visit(Validate { tris: self, reached: &mut reached, ids })?;
+        match reached.iter().position(|&n| n != 1) {
+            Some(l) => Err(format!("leaf {l} reached {} times", reached[l])),
+            None => Ok(()),
+        }
+    }
+
     /// The hit and primitive of `found` (a hit, its leaf and candidate bit).
     #[inline(always)]
     pub fn hit(&self, (h, leaf, bit): (TriangleHit, u32, u32)) -> (Hit, u32) {
@@ -257,6 +272,44 @@ impl Triangles {
     /// Answers `query` for a packet of `rays` with the directions' signs `negative`.
     pub fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
         self.tree.visit(Packet { tris: self, rays, negative, query })
+    }
+}
+
+/// [`Triangles::validate`] of the tree and of each leaf it reaches.
+struct Validate<'a> {
+    tris: &'a Triangles,
+    reached: &'a mut [usize],
+    ids: &'a mut Vec<u32>,
+}
+
+impl KernelVisitor for Validate<'_> {
+    type Output = Result<(), String>;
+
+    fn visit<const W: usize, K: Kernel<W>>(self, _: K, tree: &WideTree<W>) -> Self::Output {
+        let Self { tris, reached, ids } = self;
+        tree.validate(|r, outer| {
+            let (first, count) = leaf_range(r);
+            if count > MAX_TRIANGLE_LEAF || first >= tris.leaves.len() {
+                return Err(format!("leaf {first} of {count} triangles, of {} leaves", tris.leaves.len()));
+            }
+            reached[first] += 1;
+            let leaf = &tris.leaves[first];
+            if leaf.len() != count {
+                return Err(format!("leaf {first} holds {} triangles, its reference {count}", leaf.len()));
+            }
+            let b = tris.leaf_bounds[first];
+            let bounds = Aabb::new(Vec3A::new(b[0], b[1], b[2]), Vec3A::new(b[3], b[4], b[5]));
+            if !outer.contains(bounds.min) || !outer.contains(bounds.max) {
+                return Err(format!("leaf {first}: its box {bounds:?} is not inside {outer:?}"));
+            }
+            for bit in 0..count as u32 {
+                if !leaf.triangle(bit).p.iter().all(|p| bounds.contains(*p)) {
+                    return Err(format!("leaf {first}: triangle {bit} outside the leaf's box"));
+                }
+                ids.push(leaf.id(bit));
+            }
+            Ok(())
+        })
     }
 }
 

@@ -6,7 +6,8 @@
 //! both.
 //!
 //! The parts, each using only those listed after it:
-//! - this file: [`Bvh`], its constructor and its [`Accelerator`] queries;
+//! - this file: [`Bvh`], its constructor, its invariants ([`Bvh::validate`]) and its [`Accelerator`]
+//!   queries;
 //! - `avx2`: the AVX2 kernel: eight-wide box tests, pushes and the leaves' filter and exact test;
 //! - `kernel`: the triangles' tree and [`BvhKernel`]: each query written once over a kernel, and the
 //!   one match that picks the kernel (`TriangleTree::visit`);
@@ -153,6 +154,52 @@ impl<P> Bvh<P> {
     pub fn node_count(&self) -> usize {
         self.triangles.as_ref().map_or(0, Triangles::node_count)
             + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+    }
+
+    /// Checks the hierarchy's invariants: each bounded primitive reached exactly once (each primitive
+    /// kept at most once over the trees and the unbounded list), every child's box inside its
+    /// parent's, leaves of one to the largest leaf size, the trees no deeper than the walk's stack
+    /// allows; for triangles, each leaf's box around its triangles. `Err` tells the first one broken.
+    ///
+    /// ```
+    /// use raylume_accel::Bvh;
+    /// use raylume_geometry::{Interval, Triangle, Vec3A};
+    /// use raylume_intersect::Primitive;
+    /// let prims: Vec<Primitive> = (0..100)
+    ///     .map(|i| Vec3A::new(i as f32, 0.0, 0.0))
+    ///     .map(|p| Primitive::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)))
+    ///     .collect();
+    /// assert_eq!(Bvh::new(prims, Interval::new(0.0, 0.0)).validate(), Ok(()));
+    /// ```
+    pub fn validate(&self) -> Result<(), String> {
+        let mut ids = Vec::new();
+        if let Some(tris) = &self.triangles {
+            tris.validate(&mut ids)?;
+        }
+        if let Some((tree, prims, prim_ids)) = &self.others {
+            if prims.len() != prim_ids.len() {
+                return Err(format!("{} ids for {} primitives", prim_ids.len(), prims.len()));
+            }
+            let mut reached = vec![0usize; prims.len()];
+            tree.validate(|r, _| {
+                let (first, count) = leaf_range(r);
+                if count > MAX_LEAF || first + count > prims.len() {
+                    return Err(format!("leaf {first} of {count} primitives, of {}", prims.len()));
+                }
+                reached[first..first + count].iter_mut().for_each(|n| *n += 1);
+                Ok(())
+            })?;
+            if let Some(i) = reached.iter().position(|&n| n != 1) {
+                return Err(format!("primitive {i} of the other shapes reached {} times", reached[i]));
+            }
+            ids.extend(prim_ids);
+        }
+        ids.extend(self.unbounded.iter().map(|(_, id)| *id));
+        ids.sort_unstable();
+        if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+            return Err(format!("primitive {} held twice", w[0]));
+        }
+        Ok(())
     }
 
     /// The kernel of single-ray and batch queries over the triangles.
@@ -390,6 +437,45 @@ mod tests {
 
     use super::*;
 
+    /// Random triangles around the origin (`n` of them, each up to `size` across) and a few spheres.
+    fn random_scene(seed: u64, n: usize, size: f32) -> Vec<Primitive> {
+        let mut rng = Pcg32::new(seed, 11);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        let mut prims: Vec<Primitive> = (0..n)
+            .map(|_| {
+                let c = point(10.0);
+                Primitive::Triangle(Triangle::new(c, c + point(size), c + point(size)))
+            })
+            .collect();
+        for _ in 0..n / 10 {
+            prims.push(Primitive::Sphere(raylume_geometry::Sphere { center: point(10.0), radius: 0.5 }));
+        }
+        prims
+    }
+
+    /// Each way of breaking a tree is caught: a leaf held twice, a leaf's box not around its triangles,
+    /// a primitive twice among the other shapes.
+    #[test]
+    fn validate_finds_broken_trees() {
+        let prims = random_scene(3, 400, 1.0);
+        for kernel in [BvhKernel::Portable, BvhKernel::best()] {
+            let bvh = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
+            assert_eq!(bvh.validate(), Ok(()));
+            let mut twice = bvh.clone();
+            let tris = twice.triangles.as_mut().unwrap();
+            tris.leaves[0] = tris.leaves[1];
+            assert!(twice.validate().is_err());
+            let mut small = bvh.clone();
+            small.triangles.as_mut().unwrap().leaf_bounds[2][3] = f32::NEG_INFINITY;
+            assert!(small.validate().is_err());
+            let mut other = bvh.clone();
+            let (_, _, ids) = other.others.as_mut().unwrap();
+            ids[1] = ids[0];
+            assert!(other.validate().is_err());
+        }
+    }
+
     /// A walk that prefetches the next entry of its stack (as trees larger than [`PREFETCH_BYTES`] do)
     /// answers every query as the same tree without prefetches, bit for bit.
     #[test]
@@ -408,6 +494,7 @@ mod tests {
             let still = Interval::new(0.0, 0.0);
             let plain = Bvh::build(prims.clone(), still, BvhBuild::Sah, kernel, usize::MAX);
             let prefetching = Bvh::build(prims.clone(), still, BvhBuild::Sah, kernel, 0);
+            assert_eq!((plain.validate(), prefetching.validate()), (Ok(()), Ok(())));
             let mut hits = 0;
             for ray in &rays {
                 let (a, b) =
