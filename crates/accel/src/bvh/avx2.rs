@@ -619,8 +619,8 @@ impl Filter for V3 {
         self.vectorize(Compiled(test))
     }
 
-    /// [`Portable`](super::leaf::Portable)'s filter with the very operations of [`candidates`](super::triangles::candidates),
-    /// on both packets of a leaf at once.
+    /// [`Portable`](super::leaf::Portable)'s filter with the very operations of
+    /// [`candidates`](super::triangles::candidates), on both packets of a leaf at once.
     #[inline(always)]
     fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
         candidate_lanes(self, &edges(self, leaf, ray), count)

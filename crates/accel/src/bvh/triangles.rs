@@ -3,7 +3,6 @@
 //! few exactly as the scalar test does.
 //!
 //! [`watertight_decide`]: raylume_intersect::watertight_decide
-//! [`edge_error`]: raylume_intersect::edge_error
 
 use glam::Vec4;
 use raylume_geometry::{Triangle, Vec3A, gamma};
@@ -99,8 +98,9 @@ impl Leaf {
 
 /// The mask of the first `count` lanes that the watertight test may accept: it rejects a triangle
 /// only when two of its edge functions have opposite signs beyond their rounding error
-/// ([`edge_error`]), computed with the very operations of [`ShearedRay::transform`] and
-/// `watertight_decide`, so a lane left out here is one the exact decision rejects too.
+/// ([`edge_error`](raylume_intersect::edge_error)), computed with the very operations of
+/// [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the exact
+/// decision rejects too.
 #[inline(always)]
 pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
