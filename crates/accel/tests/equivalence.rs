@@ -43,6 +43,39 @@ fn random_scene(rng: &mut Pcg32, n: usize) -> Vec<Primitive> {
         .collect()
 }
 
+/// `bvh`, once its invariants are checked ([`Bvh::validate`]).
+fn checked<P>(bvh: Bvh<P>) -> Bvh<P> {
+    assert_eq!(bvh.validate(), Ok(()));
+    bvh
+}
+
+/// Every BVH build over random scenes (of each size, kernel and build method, with many coincident
+/// primitives) keeps the hierarchy's invariants.
+#[test]
+fn bvhs_are_valid_on_random_scenes() {
+    let still = Interval::new(0.0, 0.0);
+    for seed in 0..12u64 {
+        let mut rng = Pcg32::new(seed, 5);
+        let n = [1, 2, 7, 40, 300, 3000][seed as usize % 6];
+        let mut prims = random_scene(&mut rng, n);
+        if seed % 4 == 3 {
+            prims.extend(prims.clone());
+            prims.push(Primitive::Plane(Plane { point: Vec3A::ZERO, normal: Vec3A::Y }));
+        }
+        for build in [BvhBuild::Sah, BvhBuild::Midpoint] {
+            for kernel in [BvhKernel::Portable, BvhKernel::best()] {
+                let bvh = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 1.0), build, kernel);
+                assert_eq!(bvh.validate(), Ok(()), "seed {seed}, {build:?}, {kernel:?}");
+                let sphere = Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 });
+                let tri = Primitive::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y));
+                for same in [vec![sphere; 1 + 97 * seed as usize], vec![tri; 1 + 97 * seed as usize]] {
+                    assert_eq!(Bvh::with_kernel(same, still, build, kernel).validate(), Ok(()));
+                }
+            }
+        }
+    }
+}
+
 /// Whether two closest hits agree: the same primitive at t within 1e-6 relative, or a tie between two
 /// primitives hit at the same distance (both answers are right).
 fn same_hit(prims: &[Primitive], ray: &Ray, a: Option<PrimitiveHit>, b: Option<PrimitiveHit>) -> bool {
@@ -67,9 +100,9 @@ type Query = Box<dyn Fn(&Ray, f32) -> (Option<PrimitiveHit>, bool)>;
 
 /// Every accelerator over `prims`, by name.
 fn all_accels(prims: &[Primitive], shutter: Interval) -> Vec<(&'static str, Query)> {
-    let bvh = Bvh::new(prims.to_vec(), shutter);
-    let portable = Bvh::with_kernel(prims.to_vec(), shutter, BvhBuild::Sah, BvhKernel::Portable);
-    let mid = Bvh::with_build(prims.to_vec(), shutter, BvhBuild::Midpoint);
+    let bvh = checked(Bvh::new(prims.to_vec(), shutter));
+    let portable = checked(Bvh::with_kernel(prims.to_vec(), shutter, BvhBuild::Sah, BvhKernel::Portable));
+    let mid = checked(Bvh::with_build(prims.to_vec(), shutter, BvhBuild::Midpoint));
     let grid = Grid::new(prims.to_vec(), shutter, GridParams::default());
     let grid_no_mailbox = Grid::new(prims.to_vec(), shutter, GridParams { k: 5.0, mailbox: false });
     vec![
@@ -213,7 +246,7 @@ proptest! {
 fn bvh_handles_many_coincident_primitives() {
     // Identical centroids cannot be split by position; the build must still terminate and be correct.
     let s = Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 });
-    let bvh = Bvh::new(vec![s; 1000], Interval::new(0.0, 0.0));
+    let bvh = checked(Bvh::new(vec![s; 1000], Interval::new(0.0, 0.0)));
     let hit = bvh.closest_hit(&Ray::new(Vec3A::new(0.0, 0.0, 5.0), -Vec3A::Z), Interval::POSITIVE).unwrap();
     assert!((hit.hit.t - 4.0).abs() < 1e-5);
     assert!(bvh.node_count() > 1);
@@ -313,8 +346,8 @@ fn batches_match_single_rays() {
             );
         }
         let shutter = Interval::new(0.0, 1.0);
-        let bvh = Bvh::new(prims.clone(), shutter);
-        let portable = Bvh::with_kernel(prims.clone(), shutter, BvhBuild::Sah, BvhKernel::Portable);
+        let bvh = checked(Bvh::new(prims.clone(), shutter));
+        let portable = checked(Bvh::with_kernel(prims.clone(), shutter, BvhBuild::Sah, BvhKernel::Portable));
         let grid = Grid::new(prims.clone(), shutter, GridParams::default());
         for b in 0..120 {
             let origin = point(&mut rng, 18.0);
@@ -397,8 +430,9 @@ fn batches_match_single_rays_at_extreme_scales() {
                     .map(Primitive::Triangle),
             );
         }
-        let bvh = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
-        let portable = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, BvhKernel::Portable);
+        let bvh = checked(Bvh::new(prims.clone(), Interval::new(0.0, 0.0)));
+        let portable =
+            checked(Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, BvhKernel::Portable));
         for b in 0..60 {
             let origin = offset + point(&mut rng, 20.0) * scale;
             let aim = offset + point(&mut rng, 6.0) * scale;

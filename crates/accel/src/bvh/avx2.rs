@@ -10,23 +10,41 @@ use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 use std::arch::x86_64::{__m128, __m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
 
+use super::kernel::{BvhKernel, Kernel, Triangles};
+use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
 use super::stream::{Leaves, PacketQuery};
-use super::triangles::{Exact, Filter, Leaf};
+use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
-use super::{Candidates, Triangles};
 use crate::Tally;
 
-/// [`WideTree::closest`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
-#[inline(always)]
-pub(super) fn closest<const ANY: bool, T: Tally, L: LeafTest<T>>(
-    simd: V3,
-    tree: &WideTree<8>,
-    ray: &Ray,
-    t_range: (f32, f32),
-    tally: &mut T,
-    leaf: &mut L,
-) {
-    simd.vectorize(Walk::<ANY, T, L> { simd, tree, ray, t_range, tally, leaf })
+/// The AVX2 kernel: eight-wide trees, their walks compiled with AVX2 enabled.
+impl Kernel<8> for V3 {
+    const KIND: BvhKernel = BvhKernel::Avx2;
+
+    /// [`WideTree::walk`] of an eight-wide tree for `ray`, compiled with AVX2 enabled.
+    #[inline(always)]
+    fn walk<const ANY: bool, T: Tally, L: LeafTest<T>>(
+        self,
+        tree: &WideTree<8>,
+        ray: &Ray,
+        t_range: (f32, f32),
+        tally: &mut T,
+        leaf: &mut L,
+    ) {
+        self.vectorize(Walk::<ANY, T, L> { simd: self, tree, ray, t_range, tally, leaf })
+    }
+
+    #[inline(always)]
+    fn answer_packet(
+        self,
+        tree: &WideTree<8>,
+        tris: &Triangles,
+        rays: &[Ray],
+        negative: [bool; 3],
+        query: PacketQuery,
+    ) {
+        answer_packet(self, tree, &tris.leaves, &tris.leaf_bounds, rays, negative, query)
+    }
 }
 
 /// The walk's arguments: a function object whose call is always inlined into the AVX2 function that
@@ -47,7 +65,7 @@ impl<const ANY: bool, T: Tally, L: LeafTest<T>> pulp::NullaryFnOnce for Walk<'_,
     #[inline(always)]
     fn call(self) {
         let (t_min, t_max) = self.t_range;
-        self.tree.closest::<ANY, T>(&BoxRay8::new(self.simd, self.ray), t_min, t_max, self.tally, self.leaf)
+        self.tree.walk::<ANY, T>(&BoxRay8::new(self.simd, self.ray), t_min, t_max, self.tally, self.leaf)
     }
 }
 
@@ -269,22 +287,24 @@ impl NodeTest<8> for Frustum8 {
 
 /// [`Leaves::answer`] for a packet of `rays` (signs `negative`) down the eight-wide tree, compiled
 /// with AVX2 enabled.
-pub(super) fn answer_packet(
+fn answer_packet(
     simd: V3,
     tree: &WideTree<8>,
-    tris: &Triangles,
+    leaves: &[Leaf],
+    leaf_bounds: &[[f32; 6]],
     rays: &[Ray],
     negative: [bool; 3],
     query: PacketQuery,
 ) {
-    simd.vectorize(PacketWalk { simd, tree, tris, rays, negative, query })
+    simd.vectorize(PacketWalk { simd, tree, leaves, leaf_bounds, rays, negative, query })
 }
 
 /// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
 struct PacketWalk<'a> {
     simd: V3,
     tree: &'a WideTree<8>,
-    tris: &'a Triangles,
+    leaves: &'a [Leaf],
+    leaf_bounds: &'a [[f32; 6]],
     rays: &'a [Ray],
     negative: [bool; 3],
     query: PacketQuery<'a>,
@@ -299,8 +319,8 @@ impl pulp::NullaryFnOnce for PacketWalk<'_> {
             tree: self.tree,
             frustum: Frustum8::new(self.simd, self.rays, self.negative),
             filter: self.simd,
-            leaves: &self.tris.leaves,
-            leaf_bounds: &self.tris.leaf_bounds,
+            leaves: self.leaves,
+            leaf_bounds: self.leaf_bounds,
         };
         leaves.answer(self.rays, self.negative, self.query)
     }
@@ -535,7 +555,7 @@ fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
     let e = edges(simd, leaf, ray);
     let Verdict { hit, open, t, delta_t, inv } = verdict(simd, &e, test.lanes, ray, range);
     if hit == 0 {
-        return super::closest_of_candidates_scalar(Candidates { lanes: open, ..test });
+        return closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
     let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
     let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
@@ -599,8 +619,8 @@ impl Filter for V3 {
         self.vectorize(Compiled(test))
     }
 
-    /// [`Portable`](super::triangles::Portable)'s filter with the very operations of [`candidates`](super::triangles::candidates),
-    /// on both packets of a leaf at once.
+    /// [`Portable`](super::leaf::Portable)'s filter with the very operations of
+    /// [`candidates`](super::triangles::candidates), on both packets of a leaf at once.
     #[inline(always)]
     fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
         candidate_lanes(self, &edges(self, leaf, ray), count)
@@ -611,7 +631,7 @@ impl Filter for V3 {
     fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
         let e = edges(self, leaf, ray);
         let Verdict { hit, open, .. } = verdict(self, &e, candidate_lanes(self, &e, count), ray, range);
-        hit != 0 || super::occluded_in_leaf(self, leaf, open, ray, range)
+        hit != 0 || occluded_in_leaf(self, leaf, open, ray, range)
     }
 
     #[inline(always)]
@@ -625,7 +645,7 @@ mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Triangle, Vec3A};
 
-    use super::super::triangles::Portable;
+    use super::super::leaf::Portable;
     use super::super::triangles::tests::arb_point;
     use super::super::wide::BoxRay;
     use super::*;

@@ -1,5 +1,5 @@
 //! The binary build: binned SAH (or the course's midpoint splits) into a tree of 32-byte nodes,
-//! which [`super`] collapses into its wide nodes.
+//! which [`wide`](super::wide) collapses into its wide nodes.
 
 use raylume_geometry::{Aabb, Vec3A};
 

@@ -4,130 +4,47 @@
 //! ([`BvhKernel::Portable`]). Triangles live in their own tree, in packets of four laid out for the
 //! watertight test; other bounded shapes in a second (four-wide) tree; unbounded ones (planes) outside
 //! both.
+//!
+//! The parts, each using only those listed after it:
+//! - this file: [`Bvh`], its constructor, its invariants ([`Bvh::validate`]) and its [`Accelerator`]
+//!   queries;
+//! - `avx2`: the AVX2 kernel: eight-wide box tests, pushes and the leaves' filter and exact test;
+//! - `kernel`: the triangles' tree and [`BvhKernel`]: each query written once over a kernel, and the
+//!   one match that picks the kernel (`TriangleTree::visit`);
+//! - `stream`: packets of coherent rays walked down the triangles' tree together;
+//! - `leaf`: the triangles' leaf tests: the [`Filter`](leaf::Filter) that finds a leaf's candidates
+//!   ([`Portable`](leaf::Portable) here), the exact test of the candidates, the leaf tests of a walk;
+//! - `triangles`: the leaves' layout (packets of four triangles) and the four-lane candidate filter;
+//! - `wide`: wide nodes, the collapse of the binary tree into them, the box tests and the walk;
+//! - `build`: the binary build.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod build;
+mod kernel;
+mod leaf;
 mod stream;
 mod triangles;
 mod wide;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
+pub use kernel::BvhKernel;
+use kernel::Triangles;
 use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
-use raylume_intersect::{Intersect, ShearedRay, TriangleHit, has_unit_normal};
+use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
-use triangles::{Exact, Filter, LANES, Leaf, Portable};
-use wide::{BoxRay, Frustum, LeafTest, MAX_FIRST, WideTree, leaf_range, leaf_ref, set_bits};
+use triangles::Leaf;
+use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
 /// Largest leaf of primitives other than triangles.
 const MAX_LEAF: usize = 4;
-/// Largest leaf of triangles: two packets.
-const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
 const PREFETCH_BYTES: usize = 8 << 20;
-
-/// The triangles' tree: its nodes, each leaf's triangles and each leaf's box (the packet walk tests
-/// it for four rays at a time).
-#[derive(Clone, Debug)]
-struct Triangles {
-    tree: TriangleTree,
-    leaves: Vec<Leaf>,
-    leaf_bounds: Vec<[f32; 6]>,
-}
-
-/// The triangles' nodes, as the kernel walks them.
-#[derive(Clone, Debug)]
-enum TriangleTree {
-    /// Four-wide nodes, for [`BvhKernel::Portable`].
-    Portable(WideTree<4>),
-    /// Eight-wide nodes and the token that proves the CPU runs [`BvhKernel::Avx2`].
-    #[cfg(target_arch = "x86_64")]
-    Avx2(pulp::x86::V3, WideTree<8>),
-}
-
-impl TriangleTree {
-    /// [`WideTree::prefetch_when_larger`] of the kernel's tree (the portable kernel has no prefetch).
-    fn prefetch_when_larger(&mut self, bytes: usize, threshold: usize) {
-        match self {
-            TriangleTree::Portable(tree) => tree.prefetch_when_larger(bytes, threshold),
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(_, tree) => tree.prefetch_when_larger(bytes, threshold),
-        }
-    }
-}
-
-impl Triangles {
-    /// Answers `query` for a packet of `rays` with the directions' signs `negative`, with the tree's
-    /// kernel.
-    fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
-        match &self.tree {
-            TriangleTree::Portable(tree) => {
-                let leaves = stream::Leaves {
-                    tree,
-                    frustum: Frustum::new(rays, negative),
-                    filter: Portable,
-                    leaves: &self.leaves,
-                    leaf_bounds: &self.leaf_bounds,
-                };
-                leaves.answer(rays, negative, query)
-            }
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(simd, tree) => avx2::answer_packet(*simd, tree, self, rays, negative, query),
-        }
-    }
-
-    fn bounds(&self) -> Aabb {
-        match &self.tree {
-            TriangleTree::Portable(tree) => tree.bounds(),
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(_, tree) => tree.bounds(),
-        }
-    }
-
-    /// Bytes of the nodes, the leaves and their boxes.
-    fn bytes(&self) -> usize {
-        self.nodes().1
-            + std::mem::size_of_val(self.leaves.as_slice())
-            + std::mem::size_of_val(self.leaf_bounds.as_slice())
-    }
-
-    /// Nodes and their bytes.
-    fn nodes(&self) -> (usize, usize) {
-        match &self.tree {
-            TriangleTree::Portable(tree) => (tree.node_count(), tree.bytes()),
-            #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(_, tree) => (tree.node_count(), tree.bytes()),
-        }
-    }
-}
-
-/// The kernel a [`Bvh`] answers queries with over its triangles ([`Bvh::kernel`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BvhKernel {
-    /// Nodes of four children tested in 128-bit registers, leaves filtered four triangles at a time:
-    /// baseline x86-64 (SSE2) and every other target.
-    Portable,
-    /// Nodes of eight children tested in 256-bit registers, leaves of eight triangles filtered at
-    /// once: the choice of [`Bvh::new`] on x86-64 CPUs with AVX2 (with FMA, BMI1/2 and LZCNT: the
-    /// x86-64-v3 level). The shapes other than triangles keep the portable kernel.
-    Avx2,
-}
-
-impl BvhKernel {
-    /// The fastest kernel this CPU runs.
-    pub fn best() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        if pulp::x86::V3::is_available() {
-            return Self::Avx2;
-        }
-        Self::Portable
-    }
-}
 
 /// A BVH over primitives. Its triangles are walked by the fastest kernel the CPU runs
 /// ([`Bvh::kernel`]); every kernel finds the same hits (ties between primitives at one distance aside).
@@ -184,6 +101,12 @@ impl<P: Intersect + Clone> Bvh<P> {
     /// # Panics
     /// With more than 2^28 bounded primitives of one kind (triangles, or the others).
     pub fn with_kernel(prims: Vec<P>, shutter: Interval, method: BvhBuild, kernel: BvhKernel) -> Self {
+        Self::build(prims, shutter, method, kernel, PREFETCH_BYTES)
+    }
+
+    /// [`Bvh::with_kernel`], with walks that prefetch the next subtree when the triangles' structure
+    /// is larger than `prefetch_bytes`.
+    fn build(prims: Vec<P>, shutter: Interval, method: BvhBuild, kernel: BvhKernel, prefetch_bytes: usize) -> Self {
         let mut tri_items = Vec::new();
         let mut tris = Vec::new();
         let mut items = Vec::new();
@@ -208,36 +131,8 @@ impl<P: Intersect + Clone> Bvh<P> {
             // Finite but empty bounds: nothing can be hit.
         }
         assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
-        let triangles = (!tri_items.is_empty()).then(|| {
-            #[cfg(target_arch = "x86_64")]
-            let simd = pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2);
-            #[cfg(not(target_arch = "x86_64"))]
-            let simd: Option<()> = {
-                // Only the portable kernel on this target.
-                let _ = kernel;
-                None
-            };
-            // The SAH counts a leaf's cost in the blocks its filter tests at once: eight triangles in AVX
-            // registers, else four.
-            let block = if simd.is_some() { 2 * LANES } else { LANES };
-            let bin = build_binary(&mut tri_items, method, block, MAX_TRIANGLE_LEAF);
-            let mut leaves = Vec::with_capacity(tri_items.len().div_ceil(MAX_TRIANGLE_LEAF));
-            let mut leaf_bounds = Vec::with_capacity(leaves.capacity());
-            let leaf = |first: usize, count: usize, bounds: Aabb| {
-                leaves.push(Leaf::new(tri_items[first..first + count].iter().map(|it| tris[it.index as usize])));
-                let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
-                leaf_bounds.push([min[0], min[1], min[2], max[0], max[1], max[2]]);
-                leaf_ref(leaves.len() - 1, count)
-            };
-            let tree = match simd {
-                #[cfg(target_arch = "x86_64")]
-                Some(simd) => TriangleTree::Avx2(simd, WideTree::collapse(&bin, leaf)),
-                _ => TriangleTree::Portable(WideTree::collapse(&bin, leaf)),
-            };
-            let mut triangles = Triangles { tree, leaves, leaf_bounds };
-            triangles.tree.prefetch_when_larger(triangles.bytes(), PREFETCH_BYTES);
-            triangles
-        });
+        let triangles =
+            (!tri_items.is_empty()).then(|| Triangles::build(&mut tri_items, &tris, method, kernel, prefetch_bytes));
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, MAX_LEAF);
             let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
@@ -254,227 +149,62 @@ impl<P: Intersect + Clone> Bvh<P> {
     }
 }
 
-/// Tests the candidate `lanes` of leaf `first` for the closest hit within `range`, keeping it in
-/// `found` (the hit, its leaf and candidate bit); returns the new end of the range.
-#[inline(always)]
-fn closest_in_leaf<F: Filter>(
-    filter: F,
-    leaves: &[Leaf],
-    first: usize,
-    lanes: u32,
-    ray: &ShearedRay,
-    range: Interval,
-    found: &mut Option<(TriangleHit, u32, u32)>,
-) -> f32 {
-    if lanes == 0 {
-        range.max
-    } else {
-        let test = Candidates { leaf: &leaves[first], leaves, first, lanes, ray, range, found };
-        closest_of_candidates(ClosestOfCandidates { filter, test })
-    }
-}
-
-/// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
-/// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
-#[inline(never)]
-fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
-    test.filter.exact(test)
-}
-
-/// A closest-hit test of a leaf's candidates: the candidate `lanes` of `leaf` (leaf number `first`),
-/// the ray, its range, and the closest hit so far with its leaf and candidate bit.
-struct Candidates<'a> {
-    leaf: &'a Leaf,
-    /// Every leaf, to read the primitive of the hit so far (ties go to the lowest primitive index).
-    leaves: &'a [Leaf],
-    first: usize,
-    lanes: u32,
-    ray: &'a ShearedRay,
-    range: Interval,
-    found: &'a mut Option<(TriangleHit, u32, u32)>,
-}
-
-impl Candidates<'_> {
-    /// Decides candidate `bit` by the scalar watertight test within `range`, keeping a hit in `found`
-    /// and narrowing `range` to it.
-    #[inline(always)]
-    fn decide(&mut self, bit: u32, range: &mut Interval) {
-        if let Some(h) = raylume_intersect::watertight_decide(&self.leaf.triangle(bit), self.ray, *range) {
-            self.keep(bit, h, range);
-        }
-    }
-
-    /// Keeps `h`, a hit of candidate `bit` within `range`, if it beats the hit so far: a hit at the
-    /// same distance replaces it only if its primitive comes first.
-    #[inline(always)]
-    fn keep(&mut self, bit: u32, h: TriangleHit, range: &mut Interval) {
-        let wins = match *self.found {
-            Some((f, leaf, b)) if f.t == h.t => self.leaf.id(bit) < self.leaves[leaf as usize].id(b),
-            _ => true,
-        };
-        if wins {
-            *range = range.with_max(h.t);
-            *self.found = Some((h, self.first as u32, bit));
-        }
-    }
-}
-
-/// [`Filter::closest_of_candidates`] by the scalar watertight test of each candidate in turn.
-#[inline(always)]
-fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
-    let mut range = test.range;
-    for bit in set_bits(test.lanes) {
-        test.decide(bit, &mut range);
-    }
-    range.max
-}
-
-/// [`closest_of_candidates`]' test and the filter that compiles it.
-struct ClosestOfCandidates<'a, F> {
-    filter: F,
-    test: Candidates<'a>,
-}
-
-impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
-    type Output = f32;
-
-    #[inline(always)]
-    fn run(self) -> f32 {
-        self.filter.closest_of_candidates(self.test)
-    }
-}
-
-/// Whether any triangle among the candidate `lanes` of `leaf` is hit within `range`, by the scalar test.
-#[inline(always)]
-fn occluded_in_leaf<F: Filter>(filter: F, leaf: &Leaf, lanes: u32, ray: &ShearedRay, range: Interval) -> bool {
-    lanes != 0 && any_candidate_hit(filter, AnyCandidateHit { leaf, lanes, ray, range })
-}
-
-/// [`occluded_in_leaf`] of a leaf with candidates; not inlined, as [`closest_of_candidates`].
-#[inline(never)]
-fn any_candidate_hit<F: Filter>(filter: F, test: AnyCandidateHit) -> bool {
-    filter.exact(test)
-}
-
-/// The arguments of [`any_candidate_hit`].
-struct AnyCandidateHit<'a> {
-    leaf: &'a Leaf,
-    lanes: u32,
-    ray: &'a ShearedRay,
-    range: Interval,
-}
-
-impl Exact for AnyCandidateHit<'_> {
-    type Output = bool;
-
-    #[inline(always)]
-    fn run(self) -> bool {
-        let Self { leaf, lanes, ray, range } = self;
-        set_bits(lanes).any(|bit| raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range))
-    }
-}
-
-/// One ray's view of the triangles' leaves: their candidates for the ray, with the ray's watertight
-/// frame prepared at the first leaf it reaches (many rays reach none).
-struct RayLeaves<'a, F> {
-    filter: F,
-    leaves: &'a [Leaf],
-    ray: &'a Ray,
-    sheared: Option<Option<ShearedRay>>,
-}
-
-impl<'a, F: Filter> RayLeaves<'a, F> {
-    fn new(filter: F, leaves: &'a [Leaf], ray: &'a Ray) -> Self {
-        Self { filter, leaves, ray, sheared: None }
-    }
-
-    /// The leaf's index, its number of triangles and the prepared ray; `None` for a ray without a
-    /// watertight frame (it hits no triangle).
-    #[inline(always)]
-    fn prepared<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, usize, &ShearedRay)> {
-        let (first, count) = leaf_range(leaf);
-        for _ in 0..count {
-            tally.tested();
-        }
-        let sheared = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)).as_ref()?;
-        Some((first, count, sheared))
-    }
-
-    /// Starts loading leaf `leaf`'s triangles into the cache.
-    #[inline(always)]
-    fn prefetch(&self, leaf: u32) {
-        if let Some(l) = self.leaves.get(leaf_range(leaf).0) {
-            self.filter.prefetch(l);
-        }
-    }
-
-    /// The leaf's index, its candidate lanes and the prepared ray; `None` as [`RayLeaves::prepared`].
-    #[inline(always)]
-    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
-        let (filter, leaves) = (self.filter, self.leaves);
-        let (first, count, sheared) = self.prepared(leaf, tally)?;
-        Some((first, filter.leaf_candidates(&leaves[first], count, sheared), sheared))
-    }
-}
-
-/// The triangles' leaf test of one ray's closest-hit walk.
-struct ClosestLeaf<'a, F> {
-    leaves: RayLeaves<'a, F>,
-    t_min: f32,
-    /// The closest hit so far, its leaf and candidate bit.
-    found: Option<(TriangleHit, u32, u32)>,
-}
-
-impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
-    #[inline(always)]
-    fn prefetch(&self, leaf: u32) {
-        self.leaves.prefetch(leaf);
-    }
-
-    #[inline(always)]
-    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
-        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
-        closest_in_leaf(filter, leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
-    }
-}
-
-/// The triangles' leaf test of one ray's any-hit walk within `(0, t_max)`: ends the walk at the first
-/// hit.
-struct OccludedLeaf<'a, F> {
-    leaves: RayLeaves<'a, F>,
-    hit: bool,
-}
-
-impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
-    #[inline(always)]
-    fn prefetch(&self, leaf: u32) {
-        self.leaves.prefetch(leaf);
-    }
-
-    #[inline(always)]
-    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
-        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
-        let Some((first, count, sheared)) = self.leaves.prepared(leaf, tally) else { return t_max };
-        // An any-hit walk's range ends where the query's does until the first hit, which ends the walk.
-        self.hit = filter.leaf_occluded(&leaves[first], count, sheared, Interval::new(0.0, t_max));
-        if self.hit { f32::NEG_INFINITY } else { t_max }
-    }
-}
-
 impl<P> Bvh<P> {
     /// Number of nodes in the trees.
     pub fn node_count(&self) -> usize {
-        self.triangles.as_ref().map_or(0, |t| t.nodes().0) + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+        self.triangles.as_ref().map_or(0, Triangles::node_count)
+            + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+    }
+
+    /// Checks the hierarchy's invariants: each bounded primitive reached exactly once (each primitive
+    /// kept at most once over the trees and the unbounded list), every child's box inside its
+    /// parent's, leaves of one to the largest leaf size, the trees no deeper than the walk's stack
+    /// allows; for triangles, each leaf's box around its triangles. `Err` tells the first one broken.
+    ///
+    /// ```
+    /// use raylume_accel::Bvh;
+    /// use raylume_geometry::{Interval, Triangle, Vec3A};
+    /// use raylume_intersect::Primitive;
+    /// let prims: Vec<Primitive> = (0..100)
+    ///     .map(|i| Vec3A::new(i as f32, 0.0, 0.0))
+    ///     .map(|p| Primitive::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)))
+    ///     .collect();
+    /// assert_eq!(Bvh::new(prims, Interval::new(0.0, 0.0)).validate(), Ok(()));
+    /// ```
+    pub fn validate(&self) -> Result<(), String> {
+        let mut ids = Vec::new();
+        if let Some(tris) = &self.triangles {
+            tris.validate(&mut ids)?;
+        }
+        if let Some((tree, prims, prim_ids)) = &self.others {
+            if prims.len() != prim_ids.len() {
+                return Err(format!("{} ids for {} primitives", prim_ids.len(), prims.len()));
+            }
+            let mut reached = vec![0usize; prims.len()];
+            tree.validate(|r, _| {
+                let (first, count) = leaf_range(r);
+                if count > MAX_LEAF || first + count > prims.len() {
+                    return Err(format!("leaf {first} of {count} primitives, of {}", prims.len()));
+                }
+                reached[first..first + count].iter_mut().for_each(|n| *n += 1);
+                Ok(())
+            })?;
+            if let Some(i) = reached.iter().position(|&n| n != 1) {
+                return Err(format!("primitive {i} of the other shapes reached {} times", reached[i]));
+            }
+            ids.extend(prim_ids);
+        }
+        ids.extend(self.unbounded.iter().map(|(_, id)| *id));
+        ids.sort_unstable();
+        if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+            return Err(format!("primitive {} held twice", w[0]));
+        }
+        Ok(())
     }
 
     /// The kernel of single-ray and batch queries over the triangles.
     pub fn kernel(&self) -> BvhKernel {
-        match self.triangles.as_ref().map(|t| &t.tree) {
-            #[cfg(target_arch = "x86_64")]
-            Some(TriangleTree::Avx2(..)) => BvhKernel::Avx2,
-            _ => BvhKernel::Portable,
-        }
+        self.triangles.as_ref().map_or(BvhKernel::Portable, Triangles::kernel)
     }
 }
 
@@ -491,24 +221,18 @@ impl<P: Intersect> Bvh<P> {
             }
         }
         if let Some((tree, prims, ids)) = &self.others {
-            tree.closest::<false, _>(
-                &BoxRay::new(ray),
-                t_range.min,
-                t_range.max,
-                tally,
-                &mut |leaf, t_max, tally: &mut T| {
-                    let (first, count) = leaf_range(leaf);
-                    let mut range = t_range.with_max(t_max);
-                    for i in first..first + count {
-                        tally.tested();
-                        if let Some(hit) = prims[i].intersect_canonical(ray, range) {
-                            range = range.with_max(hit.t);
-                            best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
-                        }
+            tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {
+                let (first, count) = leaf_range(leaf);
+                let mut range = t_range.with_max(t_max);
+                for i in first..first + count {
+                    tally.tested();
+                    if let Some(hit) = prims[i].intersect_canonical(ray, range) {
+                        range = range.with_max(hit.t);
+                        best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
                     }
-                    range.max
-                },
-            );
+                }
+                range.max
+            });
         }
         best
     }
@@ -566,9 +290,9 @@ impl<P: Intersect> Bvh<P> {
         let (n, t_min) = (rays.len(), t_range.min);
         tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
         for (hit, found) in hits.iter_mut().zip(found) {
-            if let Some((h, leaf, bit)) = found {
-                let leaf = &tris.leaves[leaf as usize];
-                *hit = Some(PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) });
+            if let Some(found) = found {
+                let (h, primitive) = tris.hit(found);
+                *hit = Some(PrimitiveHit { hit: h, primitive });
             }
         }
     }
@@ -604,27 +328,10 @@ impl<P: Intersect> Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
-            let (t_min, t_max) = (t_range.min, t_range.max);
-            let found = match tree {
-                TriangleTree::Portable(tree) => {
-                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(Portable, leaves, ray), t_min, found: None };
-                    tree.closest::<false, _>(&BoxRay::new(ray), t_min, t_max, tally, &mut leaf);
-                    leaf.found
-                }
-                #[cfg(target_arch = "x86_64")]
-                TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = ClosestLeaf { leaves: RayLeaves::new(*simd, leaves, ray), t_min, found: None };
-                    avx2::closest::<false, _, _>(*simd, tree, ray, (t_min, t_max), tally, &mut leaf);
-                    leaf.found
-                }
-            };
-            if let Some((h, leaf, bit)) = found {
-                let leaf = &leaves[leaf as usize];
-                best = PrimitiveHit::closer(
-                    best,
-                    PrimitiveHit { hit: h.hit(&leaf.triangle(bit)), primitive: leaf.id(bit) },
-                );
+        if let Some(tris) = &self.triangles {
+            if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
+                let (hit, primitive) = tris.hit(found);
+                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive });
             }
         }
         best
@@ -638,23 +345,10 @@ impl<P: Intersect> Bvh<P> {
         }) {
             return true;
         }
-        if let Some(Triangles { tree, leaves, .. }) = &self.triangles {
-            let hit = match tree {
-                TriangleTree::Portable(tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(Portable, leaves, ray), hit: false };
-                    tree.closest::<true, _>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
-                    leaf.hit
-                }
-                #[cfg(target_arch = "x86_64")]
-                TriangleTree::Avx2(simd, tree) => {
-                    let mut leaf = OccludedLeaf { leaves: RayLeaves::new(*simd, leaves, ray), hit: false };
-                    avx2::closest::<true, _, _>(*simd, tree, ray, (0.0, t_max), tally, &mut leaf);
-                    leaf.hit
-                }
-            };
-            if hit {
-                return true;
-            }
+        if let Some(tris) = &self.triangles
+            && tris.occluded(ray, t_max, tally)
+        {
+            return true;
         }
         self.occluded_other(ray, t_max, tally)
     }
@@ -745,6 +439,45 @@ mod tests {
 
     use super::*;
 
+    /// Random triangles around the origin (`n` of them, each up to `size` across) and a few spheres.
+    fn random_scene(seed: u64, n: usize, size: f32) -> Vec<Primitive> {
+        let mut rng = Pcg32::new(seed, 11);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        let mut prims: Vec<Primitive> = (0..n)
+            .map(|_| {
+                let c = point(10.0);
+                Primitive::Triangle(Triangle::new(c, c + point(size), c + point(size)))
+            })
+            .collect();
+        for _ in 0..n / 10 {
+            prims.push(Primitive::Sphere(raylume_geometry::Sphere { center: point(10.0), radius: 0.5 }));
+        }
+        prims
+    }
+
+    /// Each way of breaking a tree is caught: a leaf held twice, a leaf's box not around its triangles,
+    /// a primitive twice among the other shapes.
+    #[test]
+    fn validate_finds_broken_trees() {
+        let prims = random_scene(3, 400, 1.0);
+        for kernel in [BvhKernel::Portable, BvhKernel::best()] {
+            let bvh = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
+            assert_eq!(bvh.validate(), Ok(()));
+            let mut twice = bvh.clone();
+            let tris = twice.triangles.as_mut().unwrap();
+            tris.leaves[0] = tris.leaves[1];
+            assert!(twice.validate().is_err());
+            let mut small = bvh.clone();
+            small.triangles.as_mut().unwrap().leaf_bounds[2][3] = f32::NEG_INFINITY;
+            assert!(small.validate().is_err());
+            let mut other = bvh.clone();
+            let (_, _, ids) = other.others.as_mut().unwrap();
+            ids[1] = ids[0];
+            assert!(other.validate().is_err());
+        }
+    }
+
     /// A walk that prefetches the next entry of its stack (as trees larger than [`PREFETCH_BYTES`] do)
     /// answers every query as the same tree without prefetches, bit for bit.
     #[test]
@@ -760,10 +493,10 @@ mod tests {
             .collect();
         let rays: Vec<Ray> = (0..20_000).map(|_| Ray::new(point(20.0), point(10.0) - point(20.0))).collect();
         for kernel in [BvhKernel::Portable, BvhKernel::best()] {
-            let plain = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
-            let mut prefetching = plain.clone();
-            let Some(triangles) = prefetching.triangles.as_mut() else { panic!("triangles") };
-            triangles.tree.prefetch_when_larger(1, 0);
+            let still = Interval::new(0.0, 0.0);
+            let plain = Bvh::build(prims.clone(), still, BvhBuild::Sah, kernel, usize::MAX);
+            let prefetching = Bvh::build(prims.clone(), still, BvhBuild::Sah, kernel, 0);
+            assert_eq!((plain.validate(), prefetching.validate()), (Ok(()), Ok(())));
             let mut hits = 0;
             for ray in &rays {
                 let (a, b) =

@@ -7,8 +7,8 @@ use glam::Vec4;
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
-use super::closest_in_leaf;
-use super::triangles::{Filter, Leaf};
+use super::leaf::{Filter, closest_in_leaf};
+use super::triangles::Leaf;
 use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals, set_bits};
 
 /// Rays per packet.
@@ -240,6 +240,6 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
         let state = Rays::new(rays, t_max);
         let start = state.t_max();
         let mut leaf = PacketLeaf { state, leaf_bounds: self.leaf_bounds, negative, t_min, test };
-        self.tree.closest::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
+        self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
     }
 }

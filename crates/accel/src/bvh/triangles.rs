@@ -3,13 +3,10 @@
 //! few exactly as the scalar test does.
 //!
 //! [`watertight_decide`]: raylume_intersect::watertight_decide
-//! [`edge_error`]: raylume_intersect::edge_error
 
 use glam::Vec4;
-use raylume_geometry::{Interval, Triangle, Vec3A, gamma};
+use raylume_geometry::{Triangle, Vec3A, gamma};
 use raylume_intersect::ShearedRay;
-
-use super::Candidates;
 
 /// Triangles per packet.
 pub(super) const LANES: usize = 4;
@@ -81,7 +78,7 @@ impl Leaf {
         Self { packets }
     }
 
-    /// The triangle of candidate bit `bit` ([`Filter::leaf_candidates`]).
+    /// The triangle of candidate bit `bit` ([`Filter::leaf_candidates`](super::leaf::Filter::leaf_candidates)).
     #[inline]
     pub fn triangle(&self, bit: u32) -> Triangle {
         self.packets[(bit as usize / LANES) & 1].triangle(bit % LANES as u32)
@@ -101,8 +98,9 @@ impl Leaf {
 
 /// The mask of the first `count` lanes that the watertight test may accept: it rejects a triangle
 /// only when two of its edge functions have opposite signs beyond their rounding error
-/// ([`edge_error`]), computed with the very operations of [`ShearedRay::transform`] and
-/// `watertight_decide`, so a lane left out here is one the exact decision rejects too.
+/// ([`edge_error`](raylume_intersect::edge_error)), computed with the very operations of
+/// [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the exact
+/// decision rejects too.
 #[inline(always)]
 pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
@@ -124,61 +122,6 @@ pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let positive = u.cmpgt(eu) | v.cmpgt(ev) | w.cmpgt(ew);
     let rejected = (negative & positive).bitmask();
     !rejected & ((1 << count) - 1)
-}
-
-/// How a leaf's candidate triangles are found: four lanes at a time ([`Portable`]), or eight in AVX
-/// registers (`pulp::x86::V3`).
-pub(super) trait Filter: Copy {
-    /// The candidate triangles of a leaf holding `count`: bit `4 j + l` for lane `l` of packet `j`.
-    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32;
-
-    /// Starts loading `leaf` into the cache, where the filter can (none by default).
-    #[inline(always)]
-    fn prefetch(self, _leaf: &Leaf) {}
-
-    /// Whether a triangle of a leaf holding `count` is hit within `range`: the answer of the scalar
-    /// watertight test of its candidates.
-    #[inline(always)]
-    fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
-        super::occluded_in_leaf(self, leaf, self.leaf_candidates(leaf, count, ray), ray, range)
-    }
-
-    /// The closest hit of `test`'s candidates within its range, kept in its `found`; returns the new
-    /// end of the range. The answer of the scalar watertight test of each candidate in turn, the range
-    /// narrowing at each hit.
-    #[inline(always)]
-    fn closest_of_candidates(self, test: Candidates) -> f32 {
-        super::closest_of_candidates_scalar(test)
-    }
-
-    /// Runs a leaf's exact test compiled with the filter's target features (the test's function is not
-    /// inlined into the walk, see `closest_of_candidates`, so it does not inherit them).
-    #[inline(always)]
-    fn exact<E: Exact>(self, test: E) -> E::Output {
-        test.run()
-    }
-}
-
-/// An exact test of a leaf's candidates, as a function object whose call is always inlined into the
-/// function [`Filter::exact`] compiles it in.
-pub(super) trait Exact {
-    type Output;
-    fn run(self) -> Self::Output;
-}
-
-/// The filter of baseline x86-64 (and of every other target): one packet at a time.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Portable;
-
-impl Filter for Portable {
-    #[inline(always)]
-    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
-        let mut lanes = 0;
-        for (j, packet) in leaf.packets.iter().enumerate().take(count.div_ceil(LANES)) {
-            lanes |= candidates(packet, ray, (count - j * LANES).min(LANES)) << (j * LANES);
-        }
-        lanes
-    }
 }
 
 #[cfg(test)]

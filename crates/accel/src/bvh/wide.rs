@@ -21,6 +21,10 @@ const STACK: usize = 512;
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
 const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
 
+/// Most levels of inner nodes a tree may have: the binary build stays below this depth, and the
+/// walk's stack is sized for it.
+pub(super) const MAX_DEPTH: usize = 70;
+
 /// One node of `W` children: their boxes stored by plane (`bounds[2 a]` the minima along axis `a`,
 /// `bounds[2 a + 1]` the maxima, one lane per child) so that one ray tests all of them together,
 /// picking each axis's near plane by index rather than by branch or select.
@@ -410,11 +414,25 @@ impl<const W: usize> WideTree<W> {
         self.bounds
     }
 
-    /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
-    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`; with
-    /// `ANY`, the walk stops as soon as it returns a `t_max` below `t_min`.
+    /// The closest-hit walk: [`WideTree::walk`] without `ANY`.
     #[inline(always)]
-    pub fn closest<const ANY: bool, T: Tally>(
+    pub fn closest<T: Tally>(
+        &self,
+        ray: &impl NodeTest<W>,
+        t_min: f32,
+        t_max: f32,
+        tally: &mut T,
+        leaf: &mut impl LeafTest<T>,
+    ) {
+        self.walk::<false, T>(ray, t_min, t_max, tally, leaf)
+    }
+
+    /// Visits the leaves the ray meets within `[t_min, t_max]`, nearest box first, skipping boxes
+    /// entered beyond the closest hit so far. `leaf` tests one leaf and returns the new `t_max`. With
+    /// `ANY`, an any-hit walk: children are taken in slot order (see [`NodeTest::push`]) and the walk
+    /// stops as soon as `leaf` returns a `t_max` below `t_min`.
+    #[inline(always)]
+    pub fn walk<const ANY: bool, T: Tally>(
         &self,
         ray: &impl NodeTest<W>,
         t_min: f32,
@@ -499,6 +517,69 @@ impl<const W: usize> WideTree<W> {
         }
     }
 
+    /// Checks the tree's invariants: every node reached once from the root, each child's box inside
+    /// its parent's (the root's inside the tree's bounds), unused slots empty and last, the depth the
+    /// one recorded and at most [`MAX_DEPTH`]. `leaf(reference, box)` checks each leaf against the box
+    /// its parent holds for it.
+    pub fn validate(&self, mut leaf: impl FnMut(u32, Aabb) -> Result<(), String>) -> Result<(), String> {
+        let mut reached = vec![false; self.nodes.len()];
+        let depth = self.validate_below(self.root, self.bounds, &mut reached, &mut leaf)?;
+        if depth != self.depth {
+            return Err(format!("depth {depth}, recorded as {}", self.depth));
+        }
+        if depth > MAX_DEPTH {
+            return Err(format!("depth {depth} beyond {MAX_DEPTH}"));
+        }
+        match reached.iter().position(|r| !r) {
+            Some(n) => Err(format!("node {n} not reached from the root")),
+            None => Ok(()),
+        }
+    }
+
+    /// [`WideTree::validate`] of the subtree `r` inside `outer`; returns its depth.
+    fn validate_below(
+        &self,
+        r: u32,
+        outer: Aabb,
+        reached: &mut [bool],
+        leaf: &mut impl FnMut(u32, Aabb) -> Result<(), String>,
+    ) -> Result<usize, String> {
+        if r & LEAF != 0 {
+            leaf(r, outer)?;
+            return Ok(0);
+        }
+        let Some(seen) = reached.get_mut(r as usize) else { return Err(format!("child {r} past the nodes")) };
+        if std::mem::replace(seen, true) {
+            return Err(format!("node {r} reached twice"));
+        }
+        let node = &self.nodes[r as usize];
+        let mut depth = 0;
+        let mut used = 0;
+        for slot in 0..W {
+            let bound = |i: usize| node.bounds[i][slot];
+            let inner = Aabb::new(Vec3A::new(bound(0), bound(2), bound(4)), Vec3A::new(bound(1), bound(3), bound(5)));
+            let child = node.child[slot];
+            if child == EMPTY {
+                if (0..6).any(|i| bound(i) != WideNode::<W>::EMPTY.bounds[i][0]) {
+                    return Err(format!("node {r}: unused slot {slot} with a box"));
+                }
+                continue;
+            }
+            if used != slot {
+                return Err(format!("node {r}: slot {slot} used after an unused one"));
+            }
+            used += 1;
+            if inner.is_empty() || !outer.contains(inner.min) || !outer.contains(inner.max) {
+                return Err(format!("node {r}: the box of slot {slot} {inner:?} is not inside {outer:?}"));
+            }
+            depth = depth.max(self.validate_below(child, inner, reached, leaf)?);
+        }
+        if used < 2 {
+            return Err(format!("node {r} with {used} children"));
+        }
+        Ok(depth + 1)
+    }
+
     /// Prefetches the node or leaf on top of the stack, if the tree prefetches.
     #[inline(always)]
     fn prefetch_top<T>(&self, ray: &impl NodeTest<W>, leaf: &impl LeafTest<T>, stack: &Stack, sp: usize) {
@@ -523,7 +604,7 @@ impl<const W: usize> WideTree<W> {
         mut leaf: impl FnMut(u32, &mut T) -> bool,
     ) -> bool {
         let mut hit = false;
-        self.closest::<true, T>(ray, 0.0, t_max, tally, &mut |r, t, tally: &mut T| {
+        self.walk::<true, T>(ray, 0.0, t_max, tally, &mut |r, t, tally: &mut T| {
             if leaf(r, tally) {
                 hit = true;
                 f32::NEG_INFINITY
@@ -619,7 +700,35 @@ fn collapse_node<const W: usize>(
 mod tests {
     use proptest::prelude::*;
 
+    use super::super::build::{BuildItem, BvhBuild, build_binary};
     use super::*;
+
+    /// [`WideTree::validate`] accepts a collapsed tree and finds each way of breaking it: a child's box
+    /// outside its parent's, a wrong depth, a node reached twice.
+    #[test]
+    fn validate_finds_broken_nodes() {
+        let mut items: Vec<BuildItem> = (0..64u32)
+            .map(|i| {
+                let c = Vec3A::new(i as f32, (i * 7 % 13) as f32, (i % 5) as f32);
+                let bounds = Aabb::new(c, c + Vec3A::ONE);
+                BuildItem { bounds, centroid: bounds.centroid(), index: i }
+            })
+            .collect();
+        let bin = build_binary(&mut items, BvhBuild::Sah, 1, 4);
+        let tree = WideTree::<4>::collapse(&bin, |first, count, _| leaf_ref(first, count));
+        let leaves = || |_, _| Ok(());
+        assert_eq!(tree.validate(leaves()), Ok(()));
+        assert!(tree.nodes.len() > 2 && tree.nodes[0].child[0] == 1, "a root with an inner first child");
+        let mut grown = tree.clone();
+        grown.nodes[1].bounds[1][0] += 1000.0;
+        assert!(grown.validate(leaves()).is_err());
+        let mut deeper = tree.clone();
+        deeper.depth += 1;
+        assert!(deeper.validate(leaves()).is_err());
+        let mut twice = tree.clone();
+        twice.nodes[0].child[1] = 1;
+        assert!(twice.validate(leaves()).is_err());
+    }
 
     fn arb_vec(range: f32) -> impl Strategy<Value = Vec3A> {
         prop::array::uniform3(-range..range).prop_map(Vec3A::from_array)

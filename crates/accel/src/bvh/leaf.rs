@@ -1,0 +1,309 @@
+//! The triangles' leaf tests: how a leaf's candidate triangles are found ([`Filter`]: [`Portable`]
+//! here, `pulp::x86::V3` in [`avx2`](super::avx2)), the exact decision of the candidates (the scalar
+//! watertight test, each filter compiling it with its own target features), and the leaf tests the
+//! walks call for one ray ([`ClosestLeaf`], [`OccludedLeaf`]) or per ray of a packet
+//! ([`closest_in_leaf`], [`Filter::leaf_occluded`]).
+
+use raylume_geometry::{Interval, Ray};
+use raylume_intersect::{ShearedRay, TriangleHit};
+
+use super::triangles::{LANES, Leaf, candidates};
+use super::wide::{LeafTest, leaf_range, set_bits};
+use crate::Tally;
+
+/// How a leaf's candidate triangles are found: four lanes at a time ([`Portable`]), or eight in AVX
+/// registers (`pulp::x86::V3`).
+pub(super) trait Filter: Copy {
+    /// The candidate triangles of a leaf holding `count`: bit `4 j + l` for lane `l` of packet `j`.
+    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32;
+
+    /// Starts loading `leaf` into the cache, where the filter can (none by default).
+    #[inline(always)]
+    fn prefetch(self, _leaf: &Leaf) {}
+
+    /// Whether a triangle of a leaf holding `count` is hit within `range`: the answer of the scalar
+    /// watertight test of its candidates.
+    #[inline(always)]
+    fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
+        occluded_in_leaf(self, leaf, self.leaf_candidates(leaf, count, ray), ray, range)
+    }
+
+    /// The closest hit of `test`'s candidates within its range, kept in its `found`; returns the new
+    /// end of the range. The answer of the scalar watertight test of each candidate in turn, the range
+    /// narrowing at each hit.
+    #[inline(always)]
+    fn closest_of_candidates(self, test: Candidates) -> f32 {
+        closest_of_candidates_scalar(test)
+    }
+
+    /// Runs a leaf's exact test compiled with the filter's target features (the test's function is not
+    /// inlined into the walk, see `closest_of_candidates`, so it does not inherit them).
+    #[inline(always)]
+    fn exact<E: Exact>(self, test: E) -> E::Output {
+        test.run()
+    }
+}
+
+/// An exact test of a leaf's candidates, as a function object whose call is always inlined into the
+/// function [`Filter::exact`] compiles it in.
+pub(super) trait Exact {
+    type Output;
+    fn run(self) -> Self::Output;
+}
+
+/// The filter of baseline x86-64 (and of every other target): one packet at a time.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Portable;
+
+impl Filter for Portable {
+    #[inline(always)]
+    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
+        let mut lanes = 0;
+        for (j, packet) in leaf.packets.iter().enumerate().take(count.div_ceil(LANES)) {
+            lanes |= candidates(packet, ray, (count - j * LANES).min(LANES)) << (j * LANES);
+        }
+        lanes
+    }
+}
+
+/// Tests the candidate `lanes` of leaf `first` for the closest hit within `range`, keeping it in
+/// `found` (the hit, its leaf and candidate bit); returns the new end of the range.
+#[inline(always)]
+pub(super) fn closest_in_leaf<F: Filter>(
+    filter: F,
+    leaves: &[Leaf],
+    first: usize,
+    lanes: u32,
+    ray: &ShearedRay,
+    range: Interval,
+    found: &mut Option<(TriangleHit, u32, u32)>,
+) -> f32 {
+    if lanes == 0 {
+        range.max
+    } else {
+        let test = Candidates { leaf: &leaves[first], leaves, first, lanes, ray, range, found };
+        closest_of_candidates(ClosestOfCandidates { filter, test })
+    }
+}
+
+/// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
+/// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
+#[inline(never)]
+fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
+    test.filter.exact(test)
+}
+
+/// A closest-hit test of a leaf's candidates: the candidate `lanes` of `leaf` (leaf number `first`),
+/// the ray, its range, and the closest hit so far with its leaf and candidate bit.
+pub(super) struct Candidates<'a> {
+    pub leaf: &'a Leaf,
+    /// Every leaf, to read the primitive of the hit so far (ties go to the lowest primitive index).
+    pub leaves: &'a [Leaf],
+    pub first: usize,
+    pub lanes: u32,
+    pub ray: &'a ShearedRay,
+    pub range: Interval,
+    pub found: &'a mut Option<(TriangleHit, u32, u32)>,
+}
+
+impl Candidates<'_> {
+    /// Decides candidate `bit` by the scalar watertight test within `range`, keeping a hit in `found`
+    /// and narrowing `range` to it.
+    #[inline(always)]
+    pub fn decide(&mut self, bit: u32, range: &mut Interval) {
+        if let Some(h) = raylume_intersect::watertight_decide(&self.leaf.triangle(bit), self.ray, *range) {
+            self.keep(bit, h, range);
+        }
+    }
+
+    /// Keeps `h`, a hit of candidate `bit` within `range`, if it beats the hit so far: a hit at the
+    /// same distance replaces it only if its primitive comes first.
+    #[inline(always)]
+    pub fn keep(&mut self, bit: u32, h: TriangleHit, range: &mut Interval) {
+        let wins = match *self.found {
+            Some((f, leaf, b)) if f.t == h.t => self.leaf.id(bit) < self.leaves[leaf as usize].id(b),
+            _ => true,
+        };
+        if wins {
+            *range = range.with_max(h.t);
+            *self.found = Some((h, self.first as u32, bit));
+        }
+    }
+}
+
+/// [`Filter::closest_of_candidates`] by the scalar watertight test of each candidate in turn.
+#[inline(always)]
+pub(super) fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
+    let mut range = test.range;
+    for bit in set_bits(test.lanes) {
+        test.decide(bit, &mut range);
+    }
+    range.max
+}
+
+/// [`closest_of_candidates`]' test and the filter that compiles it.
+struct ClosestOfCandidates<'a, F> {
+    filter: F,
+    test: Candidates<'a>,
+}
+
+impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
+    type Output = f32;
+
+    #[inline(always)]
+    fn run(self) -> f32 {
+        self.filter.closest_of_candidates(self.test)
+    }
+}
+
+/// Whether any triangle among the candidate `lanes` of `leaf` is hit within `range`, by the scalar test.
+#[inline(always)]
+pub(super) fn occluded_in_leaf<F: Filter>(
+    filter: F,
+    leaf: &Leaf,
+    lanes: u32,
+    ray: &ShearedRay,
+    range: Interval,
+) -> bool {
+    lanes != 0 && any_candidate_hit(filter, AnyCandidateHit { leaf, lanes, ray, range })
+}
+
+/// [`occluded_in_leaf`] of a leaf with candidates; not inlined, as [`closest_of_candidates`].
+#[inline(never)]
+fn any_candidate_hit<F: Filter>(filter: F, test: AnyCandidateHit) -> bool {
+    filter.exact(test)
+}
+
+/// The arguments of [`any_candidate_hit`].
+struct AnyCandidateHit<'a> {
+    leaf: &'a Leaf,
+    lanes: u32,
+    ray: &'a ShearedRay,
+    range: Interval,
+}
+
+impl Exact for AnyCandidateHit<'_> {
+    type Output = bool;
+
+    #[inline(always)]
+    fn run(self) -> bool {
+        let Self { leaf, lanes, ray, range } = self;
+        set_bits(lanes).any(|bit| raylume_intersect::watertight_hits(&leaf.triangle(bit), ray, range))
+    }
+}
+
+/// One ray's view of the triangles' leaves: their candidates for the ray, with the ray's watertight
+/// frame prepared at the first leaf it reaches (many rays reach none).
+struct RayLeaves<'a, F> {
+    filter: F,
+    leaves: &'a [Leaf],
+    ray: &'a Ray,
+    sheared: Option<Option<ShearedRay>>,
+}
+
+impl<'a, F: Filter> RayLeaves<'a, F> {
+    fn new(filter: F, leaves: &'a [Leaf], ray: &'a Ray) -> Self {
+        Self { filter, leaves, ray, sheared: None }
+    }
+
+    /// The leaf's index, its number of triangles and the prepared ray; `None` for a ray without a
+    /// watertight frame (it hits no triangle).
+    #[inline(always)]
+    fn prepared<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, usize, &ShearedRay)> {
+        let (first, count) = leaf_range(leaf);
+        for _ in 0..count {
+            tally.tested();
+        }
+        let sheared = self.sheared.get_or_insert_with(|| ShearedRay::new(self.ray)).as_ref()?;
+        Some((first, count, sheared))
+    }
+
+    /// Starts loading leaf `leaf`'s triangles into the cache.
+    #[inline(always)]
+    fn prefetch(&self, leaf: u32) {
+        if let Some(l) = self.leaves.get(leaf_range(leaf).0) {
+            self.filter.prefetch(l);
+        }
+    }
+
+    /// The leaf's index, its candidate lanes and the prepared ray; `None` as [`RayLeaves::prepared`].
+    #[inline(always)]
+    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
+        let (filter, leaves) = (self.filter, self.leaves);
+        let (first, count, sheared) = self.prepared(leaf, tally)?;
+        Some((first, filter.leaf_candidates(&leaves[first], count, sheared), sheared))
+    }
+}
+
+/// The triangles' leaf test of one ray's closest-hit walk.
+pub(super) struct ClosestLeaf<'a, F> {
+    leaves: RayLeaves<'a, F>,
+    t_min: f32,
+    /// The closest hit so far, its leaf and candidate bit.
+    found: Option<(TriangleHit, u32, u32)>,
+}
+
+impl<'a, F: Filter> ClosestLeaf<'a, F> {
+    /// The test of `leaves` for `ray` by `filter`, of hits from `t_min` on.
+    #[inline(always)]
+    pub fn new(filter: F, leaves: &'a [Leaf], ray: &'a Ray, t_min: f32) -> Self {
+        Self { leaves: RayLeaves::new(filter, leaves, ray), t_min, found: None }
+    }
+
+    /// The closest hit found, its leaf and candidate bit.
+    #[inline(always)]
+    pub fn found(self) -> Option<(TriangleHit, u32, u32)> {
+        self.found
+    }
+}
+
+impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
+    #[inline(always)]
+    fn prefetch(&self, leaf: u32) {
+        self.leaves.prefetch(leaf);
+    }
+
+    #[inline(always)]
+    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
+        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
+        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
+        closest_in_leaf(filter, leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
+    }
+}
+
+/// The triangles' leaf test of one ray's any-hit walk within `(0, t_max)`: ends the walk at the first
+/// hit.
+pub(super) struct OccludedLeaf<'a, F> {
+    leaves: RayLeaves<'a, F>,
+    hit: bool,
+}
+
+impl<'a, F: Filter> OccludedLeaf<'a, F> {
+    /// The test of `leaves` for `ray` by `filter`.
+    #[inline(always)]
+    pub fn new(filter: F, leaves: &'a [Leaf], ray: &'a Ray) -> Self {
+        Self { leaves: RayLeaves::new(filter, leaves, ray), hit: false }
+    }
+
+    /// Whether the walk met a hit.
+    #[inline(always)]
+    pub fn hit(&self) -> bool {
+        self.hit
+    }
+}
+
+impl<T: Tally, F: Filter> LeafTest<T> for OccludedLeaf<'_, F> {
+    #[inline(always)]
+    fn prefetch(&self, leaf: u32) {
+        self.leaves.prefetch(leaf);
+    }
+
+    #[inline(always)]
+    fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
+        let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
+        let Some((first, count, sheared)) = self.leaves.prepared(leaf, tally) else { return t_max };
+        // An any-hit walk's range ends where the query's does until the first hit, which ends the walk.
+        self.hit = filter.leaf_occluded(&leaves[first], count, sheared, Interval::new(0.0, t_max));
+        if self.hit { f32::NEG_INFINITY } else { t_max }
+    }
+}
