@@ -65,7 +65,7 @@ fn on_canonical<R>(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interv
     let scaled;
     let (ray, t_range, s) = if ray.is_canonical() {
         // The direction is finite and normal: the rest of `Ray::is_valid`.
-        if !(ray.origin.is_finite() && !ray.time.is_nan()) {
+        if !ray.origin.is_finite() || ray.time.is_nan() {
             return None;
         }
         (ray, t_range, 1.0)
