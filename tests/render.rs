@@ -126,6 +126,32 @@ fn accelerators_render_identical_images() {
     }
 }
 
+/// Where the BVH gathers camera rays (a scene with triangles: tiles of 8x8 pixels, 64 samples per
+/// query), the image and the ray counts are those of one query per ray: antialiased, with a lens and
+/// soft shadows, at a size that is no multiple of the tile, and cropped.
+#[test]
+fn gathered_camera_rays_render_the_image_of_single_queries() {
+    let scene = raylume::scene::procedural::Generator::Mount.generate(3).unwrap();
+    assert!(scene.primitive_count() > 100);
+    let render = |accel, crop| {
+        let o = RenderOptions {
+            accel: Some(accel),
+            spp: Some(4),
+            resolution: Some((37, 21)),
+            aperture: Some(2.0),
+            area_light_size: Some(0.5),
+            settings: RenderSettings { crop, ..RenderSettings::default() },
+            ..RenderOptions::default()
+        };
+        scene.render(&o, &()).unwrap()
+    };
+    for crop in [None, Some([3, 2, 30, 19])] {
+        let (single, gathered) = (render(AccelKind::None, crop), render(AccelKind::Bvh, crop));
+        assert_eq!(single.film.pixels(), gathered.film.pixels(), "crop {crop:?}");
+        assert_eq!(single.stats, gathered.stats, "crop {crop:?}");
+    }
+}
+
 /// Every course scene renders at a small size, without error, and not as a flat image.
 #[test]
 fn every_course_scene_renders() {

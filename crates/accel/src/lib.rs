@@ -214,6 +214,13 @@ pub trait Accelerator: Sync + Send {
         closest_ray_by_ray(self, rays, t_range, hits);
     }
 
+    /// Whether [`closest_hits`](Accelerator::closest_hits) answers runs of coherent rays (a camera's
+    /// neighbouring pixels) with less work than one query each, so that a renderer gains by
+    /// gathering them: false by default; a BVH over triangles walks them as packets.
+    fn gathers_coherent_rays(&self) -> bool {
+        false
+    }
+
     /// Whether each of `rays` is occluded within `(0, t_max)`, into `occluded`: `occluded[i]` is
     /// [`occluded`](Accelerator::occluded) of `rays[i]`. Overridden like
     /// [`closest_hits`](Accelerator::closest_hits).

@@ -102,4 +102,21 @@ pub trait Integrator: Sync {
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3;
+
+    /// [`radiance`](Integrator::radiance) along a camera ray whose closest hit from `t_min` on is
+    /// already known (`first`, the answer of `world.accel.closest_hit`): the render loop finds the
+    /// first hits of coherent camera rays together ([`Accelerator::closest_hits`]). The same colour,
+    /// bit for bit; by default the hit is found again.
+    fn radiance_after<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        t_min: f32,
+        first: Option<raylume_accel::PrimitiveHit>,
+        sample: &mut S,
+        stats: &mut RayStats,
+    ) -> Vec3 {
+        let _ = first;
+        self.radiance(world, ray, t_min, sample, stats)
+    }
 }

@@ -2,7 +2,7 @@ use std::ops::AddAssign;
 
 use raylume_accel::Accelerator;
 use raylume_camera::{Camera, CameraSample};
-use raylume_geometry::{Vec2, Vec3};
+use raylume_geometry::{Interval, Ray, Vec2, Vec3};
 use raylume_material::{FresnelMode, Material};
 use rayon::prelude::*;
 
@@ -237,16 +237,27 @@ where
         return (Film::from_pixels(cw, ch, pixels), RayStats::default());
     }
     // One row per task: rows differ a lot in cost (an object in the middle of the frame), and rayon
-    // can only hand an idle thread a task that has not started.
+    // can only hand an idle thread a task that has not started. Where the accelerator gathers
+    // coherent rays, a band of TILE rows per task, traced in square tiles.
+    let band = if world.accel.gathers_coherent_rays() { TILE } else { 1 };
     let stats = pixels
-        .par_chunks_mut(cw as usize)
+        .par_chunks_mut(cw as usize * band)
         .with_max_len(1)
         .enumerate()
-        .map(|(row, out)| {
+        .map(|(task, out)| {
             let mut stats = RayStats::default();
             if observer.cancelled() {
                 return stats;
             }
+            if band > 1 {
+                let first_row = y0 + (task * band) as u32;
+                gathered_band(world, camera, sampler, integrator, (x0, first_row, cw as usize), out, &mut stats);
+                for _ in 0..out.len() / cw as usize {
+                    observer.row_done();
+                }
+                return stats;
+            }
+            let row = task;
             // Row 0 of the film is the top; the camera counts y from the bottom.
             let y = h - 1 - (y0 + row as u32);
             for (i, px) in out.iter_mut().enumerate() {
@@ -271,6 +282,78 @@ where
             a
         });
     (Film::from_pixels(cw, ch, pixels), stats)
+}
+
+/// Camera rays of neighbouring samples gathered in one query of the accelerator.
+const GATHER: usize = 64;
+/// The side of the square tiles whose camera rays are gathered.
+const TILE: usize = 8;
+
+/// The pixels `out` of a band of rows (the first, `first_row`, counted from the top of the image;
+/// `width` pixels each, from column `x0`), tile by tile, with their camera rays' first hits found
+/// [`GATHER`] samples at a time ([`Accelerator::closest_hits`]): each sample then goes on with its
+/// own numbers ([`Integrator::radiance_after`]), and each pixel sums its samples in the order of the
+/// one-by-one loop, so the image is the same, bit for bit.
+fn gathered_band<A, M, C, S, I>(
+    world: &World<A, M>,
+    camera: &C,
+    sampler: &S,
+    integrator: &I,
+    (x0, first_row, width): (u32, u32, usize),
+    out: &mut [Vec3],
+    stats: &mut RayStats,
+) where
+    A: Accelerator,
+    M: Material,
+    C: Camera,
+    S: Sampler,
+    I: Integrator,
+{
+    let h = camera.resolution().1;
+    let spp = sampler.samples_per_pixel();
+    let t_min = camera.t_min();
+    let range = Interval::new(t_min, f32::INFINITY);
+    let mut rays = Vec::with_capacity(GATHER);
+    let mut samples = Vec::with_capacity(GATHER);
+    let mut hits = [None; GATHER];
+    let mut trace = |rays: &mut Vec<Ray>, samples: &mut Vec<(usize, S::Source)>, out: &mut [Vec3]| {
+        let hits = &mut hits[..rays.len()];
+        world.accel.closest_hits(rays, range, hits);
+        for ((ray, (i, mut src)), first) in rays.drain(..).zip(samples.drain(..)).zip(hits.iter()) {
+            out[i] += integrator.radiance_after(world, &ray, t_min, *first, &mut src, stats);
+        }
+    };
+    let rows = out.len() / width;
+    for tile in (0..width).step_by(TILE) {
+        for r in 0..rows {
+            // The camera counts y from the bottom.
+            let y = h - 1 - (first_row + r as u32);
+            for c in tile..(tile + TILE).min(width) {
+                let x = x0 + c as u32;
+                for index in 0..spp {
+                    let mut src = sampler.begin(x, y, index);
+                    let film = Vec2::new(x as f32, y as f32) + src.film();
+                    let lens = if C::USES_LENS { src.lens() } else { Vec2::splat(0.5) };
+                    let time = if C::USES_TIME { src.time() } else { 0.0 };
+                    rays.push(camera.generate_ray(&CameraSample { film, lens, time }));
+                    samples.push((r * width + c, src));
+                    if rays.len() == GATHER {
+                        trace(&mut rays, &mut samples, out);
+                    }
+                }
+            }
+        }
+    }
+    if !rays.is_empty() {
+        trace(&mut rays, &mut samples, out);
+    }
+    stats.camera += out.len() as u64 * spp as u64;
+    if spp != 1 {
+        let inv = 1.0 / spp as f32;
+        for px in out.iter_mut() {
+            *px *= inv;
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-use raylume_accel::Accelerator;
+use raylume_accel::{Accelerator, PrimitiveHit};
 use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
 use raylume_material::{FresnelMode, Material, reflect, refract};
 
@@ -116,7 +116,22 @@ impl<const SOFT: u8> Whitted<SOFT> {
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
-        let Some(found) = world.accel.closest_hit(ray, Interval::new(t_min, f32::INFINITY)) else {
+        let found = world.accel.closest_hit(ray, Interval::new(t_min, f32::INFINITY));
+        self.shade(world, ray, found, depth, sample, stats)
+    }
+
+    /// The colour along `ray` whose closest hit is `found`.
+    #[inline(always)]
+    fn shade<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        found: Option<PrimitiveHit>,
+        depth: u32,
+        sample: &mut S,
+        stats: &mut RayStats,
+    ) -> Vec3 {
+        let Some(found) = found else {
             let bg = world.background.eval(ray.dir);
             // The course profile dims the background seen by deep reflections; plain returns it as is.
             return if self.profile == Profile::Plain { bg } else { bg * self.profile.escape_weight(depth) };
@@ -213,6 +228,18 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         stats: &mut RayStats,
     ) -> Vec3 {
         self.trace(world, ray, t_min, 1, sample, stats)
+    }
+
+    fn radiance_after<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        _t_min: f32,
+        first: Option<PrimitiveHit>,
+        sample: &mut S,
+        stats: &mut RayStats,
+    ) -> Vec3 {
+        self.shade(world, ray, first, 1, sample, stats)
     }
 }
 

@@ -365,6 +365,10 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| self.occluded_canonical(ray, t_max, tally))
     }
 
+    fn gathers_coherent_rays(&self) -> bool {
+        self.triangles.is_some()
+    }
+
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
         for (rays, hits) in rays.chunks(stream::PACKET).zip(hits.chunks_mut(stream::PACKET)) {
