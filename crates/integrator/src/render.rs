@@ -122,8 +122,9 @@ impl AddAssign for RayStats {
 }
 
 /// What a running render tells its caller and asks of it: [`row_done`](Observer::row_done) after each
-/// finished image row (a progress bar), [`cancelled`](Observer::cancelled) before each row is
-/// started (a render stops within one row per thread of being cancelled).
+/// finished image row (a progress bar), [`cancelled`](Observer::cancelled) before each task (a row,
+/// or a band of eight rows where camera rays are gathered) is started: a render stops within one task
+/// per thread of being cancelled.
 ///
 /// `()` observes nothing; a closure `Fn()` is called per row; a [`CancelToken`] cancels; a pair
 /// `(a, b)` does what both do.

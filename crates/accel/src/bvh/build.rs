@@ -5,8 +5,9 @@ use raylume_geometry::{Aabb, Vec3A};
 
 /// Number of SAH bins per axis.
 const BINS: usize = 32;
-/// Cost of visiting a node relative to one leaf block test (a packet of four triangles): measured
-/// on the bunny meshes, 2 beats 0.5 and 1 by a few percent on incoherent rays.
+/// Cost of visiting a node relative to one leaf block test (docs/PERFORMANCE.md#binned-sah-build: with
+/// blocks of four triangles, 0.5 and 1 lose a few percent on incoherent rays; with blocks of eight,
+/// costs from 1 to 4 build the same tree).
 const TRAVERSAL_COST: f32 = 2.0;
 
 /// How a [`Bvh`](super::Bvh) chooses its splits.
