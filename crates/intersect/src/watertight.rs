@@ -188,7 +188,7 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
         return None;
     }
     // The plane through the vertices, in f64: a degenerate triangle (collinear in f32) has none.
-    let n = normal64(tri);
+    let n = tri.normal64();
     if !is_plane_normal(n) {
         return None;
     }
@@ -216,7 +216,7 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
 /// reported distance from it, and so answer as the scalar test does.
 #[inline]
 pub fn decided_distance(tri: &Triangle, ray: &ShearedRay, t: f32) -> f32 {
-    plane_distance64(tri, normal64(tri), ray).map_or(t, |t| t as f32)
+    plane_distance64(tri, tri.normal64(), ray).map_or(t, |t| t as f32)
 }
 
 /// pbrt-v4's bound on the error of the distance `t` the test forms from the sheared vertices and the
@@ -244,7 +244,7 @@ pub fn has_unit_normal(tri: &Triangle) -> bool {
 /// underflow; `None` for degenerate (collinear in f32) triangles.
 #[inline]
 pub fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
-    let n = normal64(tri);
+    let n = tri.normal64();
     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     if !(len > 0.0 && len.is_finite()) {
         return None;
@@ -253,7 +253,7 @@ pub fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
 }
 
 /// The magnitudes `|e1| x |e2|` (each term of the cross product taken positive) that bound the
-/// rounding of [`normal64`]'s components.
+/// rounding of [`Triangle::normal64`]'s components.
 #[inline(always)]
 fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
     let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
@@ -262,13 +262,7 @@ fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
     [e1[1] * e2[2] + e1[2] * e2[1], e1[2] * e2[0] + e1[0] * e2[2], e1[0] * e2[1] + e1[1] * e2[0]]
 }
 
-/// `(p1 - p0) x (p2 - p0)` in f64 ([`Triangle::normal64`]).
-#[inline(always)]
-fn normal64(tri: &Triangle) -> [f64; 3] {
-    tri.normal64()
-}
-
-/// The ray parameter where the ray meets the plane (normal `n`, [`normal64`]) of the triangle's
+/// The ray parameter where the ray meets the plane (normal `n`, [`Triangle::normal64`]) of the triangle's
 /// vertices, computed in f64; `None` where the ray is parallel to the plane or the distance is not
 /// finite in f32.
 #[inline]
