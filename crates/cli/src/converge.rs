@@ -26,6 +26,9 @@ pub struct ConvergeArgs {
     /// image is measured when each budget is reached (instead of --spp-list).
     #[arg(long, value_delimiter = ',')]
     time_budgets: Option<Vec<f64>>,
+    /// Passes of each render (their spread is the estimated error; 1: none).
+    #[arg(long, default_value_t = raylume_render::DEFAULT_PASSES)]
+    passes: u32,
     /// Samplers to compare.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "independent,jittered,sobol")]
     sampler: Vec<SamplerArg>,
@@ -60,16 +63,30 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         RenderOptions { resolution: args.width.zip(args.height), use_env: !args.no_env, ..RenderOptions::default() };
     std::fs::create_dir_all(&args.output)
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", args.output.display()) })?;
-    let render = |spp: u32, seed: u64, sampler: SamplerKind| {
+    let render = |spp: u32, seed: u64, sampler: SamplerKind, passes: u32| {
+        let passes = passes.min(spp);
+        // Budgeted passes sample the pixel's area even at 1 spp: an open time limit, stopped after
+        // the passes asked for.
         let options = RenderOptions {
             settings: RenderSettings { seed, ..RenderSettings::default() },
             spp: Some(spp),
             sampler,
+            passes,
+            time_limit: Some(f64::INFINITY),
             ..base.clone()
         };
-        // One pass: a progressive render forces area sampling of the pixel even at 1 spp.
-        scene.render_progressive(&options, &(), |_| std::ops::ControlFlow::Break(())).map_err(bad_input)
+        let stop = |p: &raylume_render::Progress| {
+            if p.pass + 1 >= passes as usize {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        };
+        scene.render_progressive(&options, &(), stop).map_err(bad_input)
     };
+    // The reference's own error, estimated from its passes, is taken out of each render's measured
+    // MSE (the render and the reference are independent, so their errors' squares add up).
+    let mut reference_mse = 0.0;
     let reference: Film = match &args.reference {
         Some(path) => {
             let film = Film::read(path).map_err(bad_input)?;
@@ -85,7 +102,8 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         }
         None => {
             eprintln!("raylume: rendering the reference at {} spp", args.reference_spp);
-            let out = render(args.reference_spp, 0x005e_ed0f_7e1e, SamplerKind::Jittered)?;
+            let out = render(args.reference_spp, 0x005e_ed0f_7e1e, SamplerKind::Jittered, REFERENCE_PASSES)?;
+            reference_mse = out.estimate.map_or(0.0, |e| e.mse);
             out.film
                 .write(args.output.join("reference.pfm"))
                 .map_err(|e| Failure { code: 1, message: e.to_string() })?;
@@ -93,22 +111,30 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         }
     };
     let reference_channels = reference.channels();
-    let mut csv = String::from("sampler,spp,seconds,rmse,rel_mse,psnr,mae\n");
+    let mut csv =
+        String::from("sampler,spp,seconds,rmse,rel_mse,psnr,mae,rmse_vs_truth,est_rmse,est_rmse_low,est_rmse_high\n");
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut table = String::new();
     for sampler in &args.sampler {
         let kind: SamplerKind = (*sampler).into();
-        let (mut times, mut errors) = (Vec::new(), Vec::new());
+        let (mut times, mut errors, mut estimated) = (Vec::new(), Vec::new(), Vec::new());
         // Each render's samples per pixel as drawn (a jittered sampler rounds up to a square).
-        let measured: Vec<(u64, f64, Film)> = match &args.time_budgets {
+        let measured: Vec<Measured> = match &args.time_budgets {
             Some(budgets) => progressive_budgets(&scene, &base, kind, budgets)?,
             None => args
                 .spp_list
                 .iter()
-                .map(|&spp| render(spp, 1, kind).map(|out| (out.samples_per_pixel, out.render_seconds, out.film)))
+                .map(|&spp| {
+                    render(spp, 1, kind, args.passes).map(|out| Measured {
+                        spp: out.samples_per_pixel,
+                        seconds: out.render_seconds,
+                        film: out.film,
+                        estimate: out.estimate,
+                    })
+                })
                 .collect::<Result<_, _>>()?,
         };
-        for (spp, seconds, film) in measured {
+        for Measured { spp, seconds, film, estimate } in measured {
             if (film.width(), film.height()) != (reference.width(), reference.height()) {
                 return Err(bad_input(format!(
                     "the reference is {}x{} but the renders are {}x{}",
@@ -123,15 +149,24 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             let rel = metrics::rel_mse(&image, &reference_channels, 0.01).unwrap_or(f64::NAN);
             let psnr = metrics::psnr(&image, &reference_channels, 1.0).unwrap_or(f64::NAN);
             let mae = metrics::mae(&image, &reference_channels).unwrap_or(f64::NAN);
+            let truth = (rmse * rmse - reference_mse).max(0.0).sqrt();
+            let (est, lo, hi) =
+                estimate.map_or((f64::NAN, f64::NAN, f64::NAN), |e| (e.rmse, e.rmse_interval.0, e.rmse_interval.1));
             let name = format!("{sampler:?}").to_lowercase();
-            let _ = writeln!(csv, "{name},{spp},{:.6},{rmse:.6e},{rel:.6e},{psnr:.3},{mae:.6e}", seconds);
+            let _ = writeln!(
+                csv,
+                "{name},{spp},{:.6},{rmse:.6e},{rel:.6e},{psnr:.3},{mae:.6e},{truth:.6e},{est:.6e},{lo:.6e},{hi:.6e}",
+                seconds
+            );
             let _ = writeln!(
                 table,
-                "{name:<12} {spp:>6} {:>10.4} {rmse:>12.5e} {rel:>12.5e} {psnr:>8.2} {mae:>12.5e}",
-                seconds
+                "{name:<12} {spp:>6} {:>10.4} {rmse:>12.5e} {rel:>12.5e} {psnr:>8.2} {mae:>12.5e} {est:>12.5e} {:>8.3}",
+                seconds,
+                est / truth
             );
             times.push(seconds);
             errors.push(rmse);
+            estimated.push(est);
         }
         let slope = metrics::log_log_slope(&times, &errors);
         let label = format!(
@@ -140,6 +175,13 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             slope.map_or("n/a".to_owned(), |s| format!("{s:.2}"))
         );
         series.push((label, times.iter().copied().zip(errors.iter().copied()).collect()));
+        let slope = metrics::log_log_slope(&times, &estimated);
+        let label = format!(
+            "{} estimated (slope {})",
+            format!("{sampler:?}").to_lowercase(),
+            slope.map_or("n/a".to_owned(), |s| format!("{s:.2}"))
+        );
+        series.push((label, times.iter().copied().zip(estimated.iter().copied()).collect()));
         let _ = writeln!(
             table,
             "{:<12} slope of log RMSE against log seconds: {}",
@@ -152,12 +194,12 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     std::fs::write(&csv_path, csv).map_err(|e| Failure { code: 1, message: format!("{}: {e}", csv_path.display()) })?;
     eprintln!("raylume: wrote {}", csv_path.display());
     println!(
-        "{:<12} {:>6} {:>10} {:>12} {:>12} {:>8} {:>12}",
-        "sampler", "spp", "seconds", "rmse", "rel_mse", "psnr", "mae"
+        "{:<12} {:>6} {:>10} {:>12} {:>12} {:>8} {:>12} {:>12} {:>8}",
+        "sampler", "spp", "seconds", "rmse", "rel_mse", "psnr", "mae", "est_rmse", "est/true"
     );
     print!("{table}");
     let png_path = args.output.join("convergence.png");
-    plot(&png_path, &series, &scene_name(&args))
+    plot(&png_path, &series, &scene_name(&args), "RMSE against the reference, and estimated (log)")
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", png_path.display()) })?;
     eprintln!("raylume: wrote {}", png_path.display());
     Ok(())
@@ -170,8 +212,14 @@ fn scene_name(args: &ConvergeArgs) -> String {
         .map_or("default scene".to_owned(), |n| n.to_string_lossy().into_owned())
 }
 
-/// A log-log plot of RMSE against seconds, one line per sampler, written through a temporary file.
-fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Result<(), Box<dyn std::error::Error>> {
+/// A log-log plot of RMSE against seconds, one line per series, written through a temporary file;
+/// `y_desc` says what the RMSE is measured against.
+pub(crate) fn plot(
+    path: &Path,
+    series: &[(String, Vec<(f64, f64)>)],
+    title: &str,
+    y_desc: &str,
+) -> Result<(), Box<dyn std::error::Error>> {
     use plotters::prelude::*;
     let points: Vec<(f64, f64)> = series.iter().flat_map(|s| s.1.iter().copied()).filter(|&p| plottable(p)).collect();
     if points.is_empty() {
@@ -191,7 +239,7 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)], title: &str) -> Resul
         chart
             .configure_mesh()
             .x_desc("seconds (log)")
-            .y_desc("RMSE against the reference (log)")
+            .y_desc(y_desc)
             .x_label_formatter(&|v| format!("{v:.0e}"))
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .light_line_style(WHITE)
@@ -221,23 +269,36 @@ fn plottable((x, y): (f64, f64)) -> bool {
     x > 0.0 && y > 0.0 && x.is_finite() && y.is_finite()
 }
 
-/// Renders progressively (passes of 1, 1, 4, 4, 16, 16, ... samples) and keeps the image available
-/// when each time budget is reached: `(samples per pixel, seconds, image)` per budget.
+/// One measured render.
+struct Measured {
+    /// Samples per pixel drawn.
+    spp: u64,
+    seconds: f64,
+    film: Film,
+    estimate: Option<raylume_integrator::Estimate>,
+}
+
+/// Passes of the rendered reference: many, so that its own error is well estimated.
+const REFERENCE_PASSES: u32 = 16;
+
+/// Renders progressively, in passes of one sample per pixel, and keeps the image available when
+/// each time budget is reached.
 fn progressive_budgets(
     scene: &raylume_scene::Scene,
     base: &RenderOptions,
     sampler: SamplerKind,
     budgets: &[f64],
-) -> Result<Vec<(u64, f64, Film)>, Failure> {
+) -> Result<Vec<Measured>, Failure> {
     let mut budgets: Vec<f64> = budgets.to_vec();
     if budgets.is_empty() || budgets.iter().any(|b| !b.is_finite() || *b <= 0.0) {
         return Err(bad_input("--time-budgets: expected positive numbers of seconds"));
     }
     budgets.sort_by(f64::total_cmp);
-    const PASSES: usize = 16;
     let options = RenderOptions {
         settings: RenderSettings { seed: 1, ..RenderSettings::default() },
         spp: Some(1),
+        passes: 1,
+        time_limit: Some(f64::INFINITY),
         sampler,
         ..base.clone()
     };
@@ -245,19 +306,23 @@ fn progressive_budgets(
     scene
         .render_progressive(&options, &(), |p| {
             while found.len() < budgets.len() && p.seconds >= budgets[found.len()] {
-                found.push((p.samples_per_pixel, p.seconds, p.film.clone()));
+                found.push(Measured {
+                    spp: p.samples_per_pixel,
+                    seconds: p.seconds,
+                    film: p.film.clone(),
+                    estimate: p.estimate,
+                });
             }
-            if found.len() == budgets.len() || p.pass + 1 == PASSES {
+            if found.len() == budgets.len() {
                 std::ops::ControlFlow::Break(())
             } else {
-                // Pass i has 4^(i/2) samples: 1, 1, 4, 4, 16, 16, ...
-                std::ops::ControlFlow::Continue(4u32.pow((p.pass as u32).div_ceil(2)))
+                std::ops::ControlFlow::Continue(())
             }
         })
         .map_err(bad_input)?;
     if found.len() < budgets.len() {
         eprintln!(
-            "raylume: the budgets from {} s on were not reached after {PASSES} passes; they are left out",
+            "raylume: the budgets from {} s on were not reached at the most samples per pixel; they are left out",
             budgets[found.len()],
         );
     }

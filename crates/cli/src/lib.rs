@@ -2,8 +2,10 @@
 //! and convergence. The binary is [`run`]; [`check_arguments`] is its validation of a command line,
 //! everything it checks before any work starts.
 //!
-//! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 130
-//! ended by a signal (SIGINT, SIGTERM, SIGHUP), which leaves no partial output file.
+//! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 3 a
+//! render stopped early by a signal (SIGINT, SIGTERM, SIGHUP) at the end of a pass, with the image
+//! so far written, 130 ended by a signal at once (a second signal during a render, or any other
+//! command), which leaves no partial output file.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -15,10 +17,11 @@ use raylume_accel::AccelKind;
 use raylume_integrator::{Profile, RenderSettings};
 use raylume_material::FresnelMode;
 use raylume_render::{RenderOptions, RenderScene, SamplerKind, limits};
-use raylume_scene::{DEFAULT_SCENE, Scene, p3f, procedural};
+use raylume_scene::{DEFAULT_SCENE, p3f, procedural};
 
 mod bench;
 mod converge;
+mod report;
 
 #[derive(Parser)]
 #[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
@@ -135,6 +138,24 @@ struct RenderArgs {
     /// Print only warnings and errors: no progress bar, no summary.
     #[arg(short, long)]
     quiet: bool,
+    /// Draw the samples in this many independent passes of spp/K samples each, whose spread
+    /// estimates the image's error (1: one stratified set, no estimate). Default 4, 16 with --adaptive.
+    #[arg(long, value_name = "K")]
+    passes: Option<u32>,
+    /// Render passes until this many seconds have gone (scene loading excluded; a pass that would
+    /// end past the limit is not started).
+    #[arg(long, value_name = "SECONDS")]
+    time_limit: Option<f64>,
+    /// Render passes until the estimated RMSE of the image (linear RGB) is at most E.
+    #[arg(long, value_name = "E")]
+    noise_threshold: Option<f64>,
+    /// Adaptive sampling: after 4 passes over every pixel, give further passes to the pixels whose
+    /// estimated error is high (and their neighbours).
+    #[arg(long)]
+    adaptive: bool,
+    /// Write the estimated error of each pass against time to DIR/error.csv and DIR/error.png.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -235,12 +256,29 @@ pub(crate) fn bad_input(message: impl ToString) -> Failure {
 
 /// Exit code of a run ended by a signal.
 pub const INTERRUPTED: u8 = 130;
+/// Exit code of a render that a signal stopped early: the image so far was written.
+pub const STOPPED_EARLY: u8 = 3;
+/// Passes of an adaptive render without `--passes`: four over every pixel, then twelve passes'
+/// worth of samples where the error is.
+const ADAPTIVE_PASSES: u32 = 16;
+
+/// Set while a render can stop gracefully at the end of a pass: the first signal then asks it to.
+static GRACEFUL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// Set by the first signal during a render that can stop gracefully.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Runs the command line of this process and returns its exit code.
 pub fn run() -> ExitCode {
     // A signal removes the temporary file of a write in progress, so that only the previous file or
     // the complete new one is ever left.
+    // During a render, the first signal ends it at the end of the current pass, and the image so
+    // far is written (exit code 3); any other signal ends the process at once (130).
     let _ = ctrlc::set_handler(|| {
+        use std::sync::atomic::Ordering;
+        if GRACEFUL.load(Ordering::SeqCst) && !STOP.swap(true, Ordering::SeqCst) {
+            eprintln!("\nraylume: stopping at the end of this pass (again to stop now, writing nothing)");
+            return;
+        }
         let _held = raylume_integrator::remove_partial_outputs();
         eprintln!("raylume: interrupted");
         std::process::exit(INTERRUPTED as i32);
@@ -352,6 +390,10 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
         grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
         sampler: args.sampler.into(),
         profile,
+        passes: args.passes.unwrap_or(if args.adaptive { ADAPTIVE_PASSES } else { raylume_render::DEFAULT_PASSES }),
+        time_limit: args.time_limit,
+        noise_threshold: args.noise_threshold,
+        adaptive: args.adaptive,
     };
     options.validate().map_err(bad_input)?;
     Ok(options)
@@ -402,10 +444,19 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let spp = scene.samples_per_pixel(&render_options).map_err(bad_input)?;
     render_options.settings.spp = spp;
     let settings = render_options.settings;
-    let n = settings.strata();
-    let jittered = render_options.sampler == SamplerKind::Jittered;
-    if jittered && spp > 1 && n * n != spp && !args.quiet {
-        eprintln!("raylume: --spp {spp} is not a square: rendering {} samples per pixel ({n} x {n})", n * n);
+    let split = raylume_render::pass_split(&render_options, spp);
+    if let Some(passes) = split.passes.filter(|k| k * split.samples_per_pass != spp && !args.quiet) {
+        let drawn = passes * split.samples_per_pass;
+        let n = (split.samples_per_pass as f64).sqrt() as u32;
+        let why = if render_options.sampler == SamplerKind::Jittered && n * n == split.samples_per_pass {
+            format!(", {n} x {n} jittered")
+        } else {
+            String::new()
+        };
+        eprintln!(
+            "raylume: --spp {spp}: rendering {drawn} samples per pixel ({passes} passes of {}{why})",
+            split.samples_per_pass
+        );
     }
     let features = scene.features(&render_options).map_err(bad_input)?;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -415,24 +466,64 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         .map_err(|e| Failure { code: 1, message: e.to_string() })?;
     let h = render_options.resolution.map_or(scene.view.height, |r| r.1);
     let rows = settings.crop.map_or(h, |c| c[3].min(h).saturating_sub(c[1]));
+    // Rows of all passes when their number is known, else rows of the current pass.
+    let known_passes = split.passes;
     let bar = if std::io::stderr().is_terminal() && !args.quiet {
-        let bar = ProgressBar::new(rows as u64);
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left)")
-                .expect("valid template"),
-        );
+        let bar = ProgressBar::new(rows as u64 * known_passes.unwrap_or(1) as u64);
+        let template = if known_passes.is_some() {
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows ({eta} left) {msg}"
+        } else {
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} rows of this pass {msg}"
+        };
+        bar.set_style(ProgressStyle::with_template(template).expect("valid template"));
         bar
     } else {
         ProgressBar::hidden()
     };
-    let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
+    let mut report = Vec::new();
+    GRACEFUL.store(true, std::sync::atomic::Ordering::SeqCst);
+    let rendered = pool.install(|| {
+        let on_pass = |p: &raylume_render::Progress| {
+            report.push(report::Row::of(p));
+            if known_passes.is_none() {
+                bar.set_position(0);
+            }
+            bar.set_message(match p.estimate {
+                Some(e) => format!("pass {}, {:.1} spp, RMSE ~ {:.2e}", p.pass + 1, p.mean_samples_per_pixel, e.rmse),
+                None => format!("pass {}, {:.1} spp", p.pass + 1, p.mean_samples_per_pixel),
+            });
+            if STOP.load(std::sync::atomic::Ordering::SeqCst) {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        };
+        scene.render_progressive(&render_options, &|| bar.inc(1), on_pass).map_err(bad_input)
+    });
+    // From here a signal ends the process at once (the write leaves no partial file).
+    GRACEFUL.store(false, std::sync::atomic::Ordering::SeqCst);
+    let out = rendered?;
+    let stopped = STOP.load(std::sync::atomic::Ordering::SeqCst);
     bar.finish_and_clear();
     for w in &out.warnings {
         eprintln!("{w}");
     }
-    out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let attributes = report::attributes(&out, settings.seed, spp, &render_options);
+    let extras = raylume_integrator::Extras { variance: out.variance.as_ref(), attributes };
+    out.film.write_with(&args.output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    if let Some(dir) = &args.report {
+        report::write(dir, &report, &scene_title(&args))?;
+    }
+    let done = if stopped {
+        Err(Failure {
+            code: STOPPED_EARLY,
+            message: format!("stopped by a signal: wrote the image of {} passes", out.passes),
+        })
+    } else {
+        Ok(())
+    };
     if args.quiet {
-        return Ok(());
+        return done;
     }
     let s = out.stats;
     let total = out.build_seconds + out.render_seconds;
@@ -456,19 +547,32 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         s.refraction,
         s.total() as f64 / out.render_seconds.max(1e-9) / 1e6
     );
-    Ok(())
+    match (&out.estimate, out.passes) {
+        (Some(e), passes) => eprintln!(
+            "raylume: estimated error {e} over {passes} passes{}",
+            if render_options.adaptive {
+                format!(" (adaptive: {:.1} spp per pixel on average)", out.mean_samples_per_pixel)
+            } else {
+                String::new()
+            }
+        ),
+        (None, _) => {
+            eprintln!("raylume: estimated error: none (one pass; --passes 2 or more, or --spp 2 or more, gives one)")
+        }
+    }
+    done
+}
+
+/// The scene's name for titles: its file name, else the default scene's.
+fn scene_title(args: &RenderArgs) -> String {
+    match (&args.scene, &args.mesh) {
+        (Some(p), _) | (None, Some(p)) => p.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+        (None, None) => "default scene".to_owned(),
+    }
 }
 
 /// Stack of each render thread: the ray tree's recursion to `limits::MAX_DEPTH` with room to spare.
 const RENDER_STACK_BYTES: usize = 8 << 20;
-
-fn scene_render(
-    scene: &Scene,
-    options: &RenderOptions,
-    bar: &ProgressBar,
-) -> Result<raylume_render::RenderOutput, Failure> {
-    scene.render(options, &|| bar.inc(1)).map_err(bad_input)
-}
 
 fn accel_kind(a: AccelArg) -> AccelKind {
     match a {

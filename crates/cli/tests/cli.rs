@@ -115,8 +115,8 @@ fn non_square_spp_is_rounded_up_and_said() {
         .unwrap();
     assert!(run.status.success());
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(stderr.contains("rendering 9 samples per pixel (3 x 3)"), "{stderr}");
-    assert!(stderr.contains("camera 576"), "{stderr}");
+    assert!(stderr.contains("--spp 5: rendering 8 samples per pixel (2 passes of 4, 2 x 2 jittered)"), "{stderr}");
+    assert!(stderr.contains("camera 512"), "{stderr}");
 }
 
 #[test]
@@ -248,15 +248,21 @@ fn converge_writes_a_well_formed_csv() {
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let csv = std::fs::read_to_string(report.join("convergence.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "sampler,spp,seconds,rmse,rel_mse,psnr,mae");
+    assert_eq!(lines[0], "sampler,spp,seconds,rmse,rel_mse,psnr,mae,rmse_vs_truth,est_rmse,est_rmse_low,est_rmse_high");
     assert_eq!(lines.len(), 1 + 3 * 3, "three samplers, three sample counts");
     for line in &lines[1..] {
         let fields: Vec<&str> = line.split(',').collect();
-        assert_eq!(fields.len(), 7);
+        assert_eq!(fields.len(), 11);
         assert!(["independent", "jittered", "sobol"].contains(&fields[0]), "{line}");
-        for f in &fields[1..] {
+        // One pass at 1 spp has no estimate; four passes at 4 and 16 spp have one.
+        let one_pass = fields[1] == "1";
+        for (i, f) in fields[1..].iter().enumerate() {
             let v: f64 = f.parse().unwrap();
-            assert!(v.is_finite() && v >= 0.0, "{line}");
+            if one_pass && i >= 7 {
+                assert!(v.is_nan(), "{line}");
+            } else {
+                assert!(v.is_finite() && v >= 0.0, "{line}");
+            }
         }
     }
     assert!(String::from_utf8_lossy(&run.stdout).contains("slope of log RMSE against log seconds"));
@@ -530,15 +536,18 @@ fn converge_writes_its_rows_even_when_the_plot_cannot_be_drawn() {
     assert_eq!(leftovers.len(), 2, "the CSV and the reference only: {leftovers:?}");
 }
 
-/// The summary gives the samples per pixel each sampler really drew; only the jittered sampler
-/// rounds up to a square, and says so.
+/// The summary gives the samples per pixel each sampler really drew: split into passes of equal
+/// size (a jittered pass rounds up to a square), a count may round up, and the CLI says so.
 #[test]
 fn the_summary_reports_the_samples_rendered() {
     let dir = temp_dir("samples");
     let out = dir.join("out.png");
-    for (sampler, spp, shown, rounded) in
-        [("sobol", "8", "8 spp", false), ("independent", "5", "5 spp", false), ("jittered", "8", "9 spp", true)]
-    {
+    for (sampler, spp, shown, rounded) in [
+        ("sobol", "8", "8 spp", false),
+        ("independent", "5", "6 spp", true),
+        ("jittered", "8", "8 spp", false),
+        ("jittered", "9", "12 spp", true),
+    ] {
         let run = raylume()
             .args(["render", "--sampler", sampler, "--spp", spp, "--width", "16", "--height", "10", "-o"])
             .arg(&out)
@@ -547,7 +556,7 @@ fn the_summary_reports_the_samples_rendered() {
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert_eq!(run.status.code(), Some(0), "{stderr}");
         assert!(stderr.contains(&format!("(16x10, {shown}, ")), "{sampler}: {stderr}");
-        assert_eq!(stderr.contains("is not a square"), rounded, "{sampler}: {stderr}");
+        assert_eq!(stderr.contains(&format!("--spp {spp}: rendering")), rounded, "{sampler}: {stderr}");
     }
 }
 

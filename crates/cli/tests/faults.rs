@@ -70,7 +70,9 @@ fn a_signal_at_any_moment_leaves_the_previous_file_or_the_complete_new_one() {
         std::thread::sleep(at);
         signal(child.id(), sig);
         let status = child.wait().unwrap();
-        if status.code() == Some(130) {
+        // During the render a signal ends it at the end of its pass and the image so far is written
+        // (3); during the write, the process ends at once and writes nothing (130).
+        if matches!(status.code(), Some(130 | 3)) {
             interrupted += 1;
         } else {
             assert!(status.success(), "SIG{sig} after {at:?}: {status:?}");
@@ -170,6 +172,43 @@ fn an_interrupted_render_before_the_write_leaves_nothing() {
     std::thread::sleep(Duration::from_millis(30));
     signal(child.id(), "INT");
     let status = child.wait().unwrap();
-    assert!(status.code() == Some(130) || status.success(), "{status:?}");
+    assert!(matches!(status.code(), Some(130 | 3)) || status.success(), "{status:?}");
     assert_eq!(others(&dir, &["empty.p3f", "out.exr"]), Vec::<String>::new());
+}
+
+/// A long render of many passes: the first signal ends it at the end of the current pass, writes
+/// the image of the passes done and exits 3; a second signal ends it at once, writing nothing.
+#[test]
+fn a_signal_stops_a_render_at_the_end_of_a_pass_and_a_second_stops_it_at_once() {
+    let dir = temp_dir("passes");
+    let out = dir.join("out.exr");
+    let long = ["render", "--width", "160", "--height", "100", "--spp", "4096", "--passes", "4096", "-o"];
+    let child = raylume().args(long).arg(&out).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let asked = Instant::now();
+    signal(child.id(), "TERM");
+    let run = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(3), "{stderr}");
+    assert!(asked.elapsed() < Duration::from_secs(20), "it stopped at the end of a pass, not of the render");
+    assert!(stderr.contains("stopped by a signal: wrote the image of"), "{stderr}");
+    let passes: u32 = stderr.split("wrote the image of ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!((1..4096).contains(&passes), "{stderr}");
+    assert!(stderr.contains(&format!("over {passes} passes")), "the summary gives the estimate: {stderr}");
+    let film = raylume_integrator::Film::read(&out).unwrap();
+    assert_eq!((film.width(), film.height()), (160, 100));
+    assert!(film.pixels().iter().all(|p| p.is_finite()) && film.pixels().iter().any(|p| p.x > 0.0));
+
+    // Passes long enough that the second signal comes within the pass the first one ends.
+    let again = dir.join("again.exr");
+    let slow = ["render", "--width", "1280", "--height", "800", "--spp", "4096", "--passes", "4096", "-o"];
+    let child = raylume().args(slow).arg(&again).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    signal(child.id(), "INT");
+    std::thread::sleep(Duration::from_millis(20));
+    signal(child.id(), "INT");
+    let run = child.wait_with_output().unwrap();
+    assert_eq!(run.status.code(), Some(130), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(others(&dir, &["out.exr"]), Vec::<String>::new(), "nothing written by the second run");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

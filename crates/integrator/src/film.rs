@@ -65,6 +65,30 @@ pub struct Film {
     pixels: Vec<Vec3>,
 }
 
+/// What an OpenEXR file carries besides the image ([`Film::write_with`]).
+#[derive(Clone, Debug, Default)]
+pub struct Extras<'a> {
+    /// The estimated variance of each pixel's value, per channel.
+    pub variance: Option<&'a Film>,
+    /// Named attributes of the header (ASCII names, such as `raylume.spp`).
+    pub attributes: Vec<(String, MetaValue)>,
+}
+
+impl Extras<'_> {
+    fn is_empty(&self) -> bool {
+        self.variance.is_none() && self.attributes.is_empty()
+    }
+}
+
+/// The value of an attribute in an image file's header.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MetaValue {
+    /// A number (written as a double).
+    Number(f64),
+    /// Text (its ASCII characters).
+    Text(String),
+}
+
 /// The image formats raylume writes and reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageFormat {
@@ -213,6 +237,69 @@ impl Film {
             OutputError::Io { source, .. } => OutputError::Io { path: path.to_owned(), source },
             OutputError::Encode { source, .. } => OutputError::Encode { path: path.to_owned(), source },
             other => other,
+        })
+    }
+
+    /// [`Film::write`] with what an OpenEXR file carries besides the image: the per-pixel variance
+    /// as the channels `variance.R`, `variance.G`, `variance.B`, and attributes of the render
+    /// (sample count, seed, time, estimated error). PNG and PFM files hold the image alone.
+    ///
+    /// ```
+    /// use raylume_integrator::{Extras, Film, MetaValue};
+    /// use raylume_geometry::Vec3;
+    /// let path = std::env::temp_dir().join(format!("raylume-extras-doc-{}.exr", std::process::id()));
+    /// let film = Film::from_pixels(2, 1, vec![Vec3::new(0.25, 0.5, 1.0), Vec3::ZERO]);
+    /// let variance = Film::from_pixels(2, 1, vec![Vec3::splat(1e-4), Vec3::ZERO]);
+    /// let extras = Extras {
+    ///     variance: Some(&variance),
+    ///     attributes: vec![("raylume.spp".into(), MetaValue::Number(16.0))],
+    /// };
+    /// film.write_with(&path, &extras).unwrap();
+    /// assert_eq!(Film::read(&path).unwrap(), film);
+    /// # std::fs::remove_file(&path).unwrap();
+    /// ```
+    pub fn write_with(&self, path: impl AsRef<Path>, extras: &Extras) -> Result<(), OutputError> {
+        let path = path.as_ref();
+        if ImageFormat::from_path(path)? != ImageFormat::Exr || extras.is_empty() {
+            return self.write(path);
+        }
+        if self.pixels.is_empty() {
+            return Err(OutputError::Empty { path: path.to_owned(), width: self.width, height: self.height });
+        }
+        if let Some(v) = extras.variance {
+            assert_eq!((v.width, v.height), (self.width, self.height), "the variance is of another size");
+        }
+        let io = |source| OutputError::Io { path: path.to_owned(), source };
+        write_atomically(path, |tmp| self.encode_exr(tmp, extras).map_err(io), io)
+    }
+
+    fn encode_exr(&self, tmp: &Path, extras: &Extras) -> std::io::Result<()> {
+        use exr::prelude::*;
+        let plane = |film: &Film, c: usize| FlatSamples::F32(film.pixels.iter().map(|p| p[c]).collect());
+        let mut channels: Vec<AnyChannel<FlatSamples>> =
+            ["R", "G", "B"].iter().enumerate().map(|(c, name)| AnyChannel::new(*name, plane(self, c))).collect();
+        if let Some(v) = extras.variance {
+            for (c, name) in ["variance.R", "variance.G", "variance.B"].iter().enumerate() {
+                channels.push(AnyChannel::new(*name, plane(v, c)));
+            }
+        }
+        let mut attributes = LayerAttributes { software_name: Some(Text::from("raylume")), ..Default::default() };
+        let text = |s: &str| {
+            let ascii: String = s.chars().filter(|c| c.is_ascii() && !c.is_ascii_control()).collect();
+            Text::new_or_none(ascii).unwrap_or_default()
+        };
+        for (key, value) in &extras.attributes {
+            let value = match value {
+                MetaValue::Number(x) => AttributeValue::F64(*x),
+                MetaValue::Text(t) => AttributeValue::Text(text(t)),
+            };
+            attributes.other.insert(text(key), value);
+        }
+        let size = (self.width as usize, self.height as usize);
+        let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(channels.into()));
+        Image::from_layer(layer).write().to_file(tmp).map_err(|e| match e {
+            exr::error::Error::Io(e) => e,
+            other => std::io::Error::other(other.to_string()),
         })
     }
 

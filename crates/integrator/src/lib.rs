@@ -28,6 +28,7 @@
 //! ```
 
 mod background;
+mod estimate;
 mod film;
 pub mod metrics;
 mod profile;
@@ -36,11 +37,15 @@ pub mod sampler;
 mod whitted;
 
 pub use background::{Background, Cubemap, CubemapFace};
+pub use estimate::{Accumulator, Estimate, REL_MSE_EPS};
 pub use film::{
-    Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, OutputError, remove_partial_outputs, write_atomically,
+    Extras, Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, MetaValue, OutputError, remove_partial_outputs,
+    write_atomically,
 };
 pub use profile::Profile;
-pub use render::{CancelToken, MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, Observer, RayStats, RenderSettings, render};
+pub use render::{
+    CancelToken, MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, Observer, RayStats, RenderSettings, render, render_pass,
+};
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{SoftShadows, Whitted};
 

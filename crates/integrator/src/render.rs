@@ -226,6 +226,30 @@ where
     I: Integrator,
     O: Observer + ?Sized,
 {
+    render_pass(world, camera, sampler, integrator, settings, observer, None)
+}
+
+/// [`render`] of only the pixels `active` marks (one flag per pixel of the image or its crop, top
+/// row first; `None` renders all): the pass of an adaptive render, which gives more samples to the
+/// pixels that need them. The pixels left out are black, and each pixel rendered is the same, bit
+/// for bit, as in a render of all of them.
+pub fn render_pass<A, M, C, S, I, O>(
+    world: &World<A, M>,
+    camera: &C,
+    sampler: &S,
+    integrator: &I,
+    settings: &RenderSettings,
+    observer: &O,
+    active: Option<&[bool]>,
+) -> (Film, RayStats)
+where
+    A: Accelerator,
+    M: Material,
+    C: Camera,
+    S: Sampler,
+    I: Integrator,
+    O: Observer + ?Sized,
+{
     let (w, h) = camera.resolution();
     let [x0, y0, x1, y1] =
         settings.crop.map_or([0, 0, w, h], |[x0, y0, x1, y1]| [x0.min(w), y0.min(h), x1.min(w), y1.min(h)]);
@@ -236,6 +260,9 @@ where
     let mut pixels = vec![Vec3::ZERO; cw as usize * ch as usize];
     if cw == 0 || ch == 0 {
         return (Film::from_pixels(cw, ch, pixels), RayStats::default());
+    }
+    if let Some(mask) = active {
+        assert_eq!(mask.len(), pixels.len(), "one flag per pixel of the image or crop");
     }
     // One row per task: rows differ a lot in cost (an object in the middle of the frame), and rayon
     // can only hand an idle thread a task that has not started. Where the accelerator gathers
@@ -250,9 +277,18 @@ where
             if observer.cancelled() {
                 return stats;
             }
+            let first = task * band * cw as usize;
+            let mask = active.map(|m| &m[first..first + out.len()]);
+            if mask.is_some_and(|m| !m.contains(&true)) {
+                for _ in 0..out.len() / cw as usize {
+                    observer.row_done();
+                }
+                return stats;
+            }
             if band > 1 {
                 let first_row = y0 + (task * band) as u32;
-                gathered_band(world, camera, sampler, integrator, (x0, first_row, cw as usize), out, &mut stats);
+                let band = (x0, first_row, cw as usize);
+                gathered_band(world, camera, sampler, integrator, band, out, mask, &mut stats);
                 for _ in 0..out.len() / cw as usize {
                     observer.row_done();
                 }
@@ -262,6 +298,9 @@ where
             // Row 0 of the film is the top; the camera counts y from the bottom.
             let y = h - 1 - (y0 + row as u32);
             for (i, px) in out.iter_mut().enumerate() {
+                if mask.is_some_and(|m| !m[i]) {
+                    continue;
+                }
                 let x = x0 + i as u32;
                 let mut sum = Vec3::ZERO;
                 for index in 0..spp {
@@ -294,7 +333,8 @@ const TILE: usize = 8;
 /// `width` pixels each, from column `x0`), tile by tile, with their camera rays' first hits found
 /// [`GATHER`] samples at a time ([`Accelerator::closest_hits`]): each sample then goes on with its
 /// own numbers ([`Integrator::radiance_after`]), and each pixel sums its samples in the order of the
-/// one-by-one loop, so the image is the same, bit for bit.
+/// one-by-one loop, so the image is the same, bit for bit. Pixels `mask` leaves out are skipped.
+#[allow(clippy::too_many_arguments)]
 fn gathered_band<A, M, C, S, I>(
     world: &World<A, M>,
     camera: &C,
@@ -302,6 +342,7 @@ fn gathered_band<A, M, C, S, I>(
     integrator: &I,
     (x0, first_row, width): (u32, u32, usize),
     out: &mut [Vec3],
+    mask: Option<&[bool]>,
     stats: &mut RayStats,
 ) where
     A: Accelerator,
@@ -330,6 +371,9 @@ fn gathered_band<A, M, C, S, I>(
             // The camera counts y from the bottom.
             let y = h - 1 - (first_row + r as u32);
             for c in tile..(tile + TILE).min(width) {
+                if mask.is_some_and(|m| !m[r * width + c]) {
+                    continue;
+                }
                 let x = x0 + c as u32;
                 for index in 0..spp {
                     let mut src = sampler.begin(x, y, index);
@@ -348,7 +392,8 @@ fn gathered_band<A, M, C, S, I>(
     if !rays.is_empty() {
         trace(&mut rays, &mut samples, out);
     }
-    stats.camera += out.len() as u64 * spp as u64;
+    let rendered = mask.map_or(out.len(), |m| m.iter().filter(|&&a| a).count());
+    stats.camera += rendered as u64 * spp as u64;
     if spp != 1 {
         let inv = 1.0 / spp as f32;
         for px in out.iter_mut() {

@@ -5,14 +5,15 @@ use raylume_accel::{AccelKind, AccelVisitor, Accelerator, with_accelerator};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
-    Background, Centre, Film, Independent, Integrator, Jittered, Light, Observer, RayStats, RenderSettings, Sampler,
-    Shading, Sobol, SoftShadows, Whitted, World, render,
+    Accumulator, Background, Centre, Estimate, Film, Independent, Integrator, Jittered, Light, Observer, RayStats,
+    RenderSettings, Sampler, Shading, Sobol, SoftShadows, Whitted, World, render_pass,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
 use raylume_scene::{AccelHint, Scene, SceneError, Shape, Warning};
 
+use crate::options::ADAPTIVE_MIN_PASSES;
 use crate::{Features, RenderOptions, RenderOutput, RenderScene, SamplerKind, limits, load_cubemap};
 
 /// The primitives of a scene with their shading data, in one order.
@@ -132,7 +133,7 @@ impl RenderScene for Scene {
         &self,
         options: &RenderOptions,
         observer: &O,
-        mut on_pass: impl FnMut(&Progress) -> ControlFlow<(), u32>,
+        mut on_pass: impl FnMut(&Progress) -> ControlFlow<()>,
     ) -> Result<RenderOutput, SceneError> {
         self.render_passes(options, &Dyn(observer), Some(&mut on_pass))
     }
@@ -252,28 +253,46 @@ impl Steps for Scene {
         observer: &dyn Observer,
         progressive: Option<OnPass>,
     ) -> Result<RenderOutput, SceneError> {
+        let started = Instant::now();
         let prepared = self.prepared(options)?;
         let mut features = self.features_of(&prepared);
-        features.antialiasing |= progressive.is_some();
+        let plan = Plan::new(options, prepared.settings.spp);
+        // Passes are independent only if each draws its own samples over the pixel's area.
+        features.antialiasing |= plan.passes > 1 || plan.budget();
         let mut warnings = Vec::new();
         let background = self.background(options, &mut warnings)?;
         let Prepared { view, lights, materials, shutter, settings } = prepared;
         let Primitives { primitives, shading, vertex_normals } = self.primitives();
         let kind = self.accel_kind(options);
         let build = Instant::now();
-        let job = Job { view: &view, shutter, features, settings: &settings, observer, sampler: options.sampler };
-        let mut once = |_: &Progress| ControlFlow::Break(());
-        let on_pass: OnPass = progressive.unwrap_or(&mut once);
+        let job = Job {
+            view: &view,
+            shutter,
+            features,
+            settings: &settings,
+            observer,
+            sampler: options.sampler,
+            plan,
+            started,
+        };
+        let mut go_on = |_: &Progress| ControlFlow::Continue(());
+        let on_pass: OnPass = progressive.unwrap_or(&mut go_on);
         let parts = WorldParts { materials, shading, vertex_normals, lights, background };
         let visitor = RenderWith { parts, build, job: &job, on_pass };
         let (rendered, build_seconds) = with_accelerator(kind, primitives, shutter, options.grid, visitor)?;
-        let Rendered { film, stats, seconds: render_seconds, samples_per_pixel } = rendered;
+        let Rendered { accumulator, stats, seconds: render_seconds, samples_per_pass } = rendered;
+        let samples = accumulator.passes().iter().map(|&k| k as u64).sum::<u64>() * samples_per_pass;
+        let passes = accumulator.passes().iter().copied().max().unwrap_or(0);
         Ok(RenderOutput {
-            film,
+            film: accumulator.film(),
             stats,
             accel: kind,
             features,
-            samples_per_pixel,
+            samples_per_pixel: passes as u64 * samples_per_pass,
+            mean_samples_per_pixel: samples as f64 / accumulator.passes().len().max(1) as f64,
+            passes,
+            estimate: accumulator.estimate(),
+            variance: accumulator.variance_film(),
             build_seconds,
             render_seconds,
             warnings,
@@ -341,23 +360,108 @@ struct Job<'a> {
     settings: &'a RenderSettings,
     observer: &'a dyn Observer,
     sampler: SamplerKind,
+    plan: Plan,
+    /// When the render was asked for (the time limit counts from here).
+    started: Instant,
+}
+
+/// How a render's samples are split into passes, and when it stops.
+#[derive(Clone, Copy, Debug)]
+struct Plan {
+    /// Samples per pixel of each pass (before the sampler rounds them).
+    pass_spp: u32,
+    /// Passes of a render without a budget (with adaptive sampling: the samples of this many
+    /// passes over the whole image).
+    passes: u32,
+    time_limit: Option<f64>,
+    noise_threshold: Option<f64>,
+    adaptive: bool,
+}
+
+impl Plan {
+    fn new(options: &RenderOptions, spp: u32) -> Self {
+        let (time_limit, noise_threshold) = (options.time_limit, options.noise_threshold);
+        let budget = time_limit.is_some() || noise_threshold.is_some();
+        // What the sampler draws for `m` samples asked: a jittered sampler rounds up to a square.
+        let drawn = |m: u32| match options.sampler {
+            SamplerKind::Jittered => RenderSettings { spp: m, ..RenderSettings::default() }.strata().pow(2),
+            SamplerKind::Independent | SamplerKind::Sobol => m,
+        };
+        // A fixed render splits its samples into at most `passes` passes, as evenly as the sampler
+        // allows: the split that draws the fewest samples in all, and of those the most passes.
+        // Budgeted renders draw passes of `spp / passes` for as long as they go on.
+        let passes = if budget {
+            options.passes
+        } else {
+            (2..=options.passes.min(spp))
+                .min_by_key(|&k| (k as u64 * drawn(spp.div_ceil(k)) as u64, std::cmp::Reverse(k)))
+                .unwrap_or(1)
+        };
+        Self { pass_spp: spp.div_ceil(passes).max(1), passes, time_limit, noise_threshold, adaptive: options.adaptive }
+    }
+
+    fn budget(&self) -> bool {
+        self.time_limit.is_some() || self.noise_threshold.is_some()
+    }
+}
+
+/// How a render splits its samples into passes ([`RenderOptions::passes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PassSplit {
+    /// The passes of a render without a budget or adaptive sampling; `None` when a budget or
+    /// adaptive sampling decides.
+    pub passes: Option<u32>,
+    /// Samples per pixel each pass draws (a jittered pass rounds its share up to a square).
+    pub samples_per_pass: u32,
+}
+
+/// How a render with `options` draws `spp` samples per pixel (the scene's, as
+/// [`RenderScene::samples_per_pixel`] gives them).
+///
+/// ```
+/// use raylume_render::{pass_split, PassSplit, RenderOptions};
+/// let split = pass_split(&RenderOptions::default(), 16);
+/// assert_eq!(split, PassSplit { passes: Some(4), samples_per_pass: 4 });
+/// assert_eq!(pass_split(&RenderOptions::default(), 1).passes, Some(1));
+/// ```
+pub fn pass_split(options: &RenderOptions, spp: u32) -> PassSplit {
+    let plan = Plan::new(options, spp);
+    let antialiasing = spp > 1 || plan.passes > 1 || plan.budget();
+    let samples_per_pass = match (antialiasing, options.sampler) {
+        (false, _) => 1,
+        (true, SamplerKind::Jittered) => {
+            RenderSettings { spp: plan.pass_spp, ..RenderSettings::default() }.strata().pow(2)
+        }
+        (true, SamplerKind::Independent | SamplerKind::Sobol) => plan.pass_spp,
+    };
+    let passes = (!plan.budget() && !plan.adaptive).then_some(plan.passes);
+    PassSplit { passes, samples_per_pass }
 }
 
 /// What [`RenderScene::render_progressive`] hands out after each pass.
 #[derive(Debug)]
 pub struct Progress<'a> {
-    /// The image so far: the sample-weighted mean of all passes.
+    /// The image so far: each pixel's mean over its passes.
     pub film: &'a Film,
-    /// Samples per pixel so far (what the samplers drew, after rounding).
+    /// Samples per pixel so far (what the samplers drew, after rounding; with adaptive sampling,
+    /// what the most sampled pixels got).
     pub samples_per_pixel: u64,
+    /// Samples per pixel so far over the whole image.
+    pub mean_samples_per_pixel: f64,
     /// Seconds spent rendering so far (building the accelerator excluded).
     pub seconds: f64,
     /// Index of the pass just finished.
     pub pass: usize,
+    /// Pixels the pass just finished rendered (all of them but with adaptive sampling).
+    pub pixels_rendered: usize,
+    /// The image's estimated error so far (from the second pass on).
+    pub estimate: Option<Estimate>,
+    /// The per-pixel statistics of the passes so far: the per-pixel variance, pass counts.
+    pub accumulator: &'a Accumulator,
 }
 
-/// After each pass: `Continue(n)` renders another pass of `n` samples per pixel, `Break` stops.
-type OnPass<'a> = &'a mut dyn FnMut(&Progress) -> ControlFlow<(), u32>;
+/// After each pass: `Continue` lets the render go on (as its plan and budgets say), `Break` stops it.
+type OnPass<'a> = &'a mut dyn FnMut(&Progress) -> ControlFlow<()>;
 
 impl Job<'_> {
     fn with_camera<A: Accelerator>(&self, world: &World<A, Phong>, on_pass: OnPass) -> Result<Rendered, SceneError> {
@@ -403,7 +507,7 @@ impl Job<'_> {
         }
     }
 
-    /// Renders passes, each with its own seed, and accumulates them weighted by samples, until
+    /// Renders passes, each with its own seed, and accumulates them per pixel, until the plan or
     /// `on_pass` says stop or the observer cancels.
     fn go<A: Accelerator, C: Camera, S: Sampler, I: Integrator>(
         &self,
@@ -414,8 +518,15 @@ impl Job<'_> {
         on_pass: OnPass,
     ) -> Result<Rendered, SceneError> {
         let start = Instant::now();
-        let (mut acc, mut total, mut stats) = (None::<Film>, 0u64, RayStats::default());
-        let mut spp = self.settings.spp;
+        let plan = self.plan;
+        let (w, h) = camera.resolution();
+        let [x0, y0, x1, y1] = self.settings.crop.unwrap_or([0, 0, w, h]);
+        let (cw, ch) = (x1.min(w).saturating_sub(x0), y1.min(h).saturating_sub(y0));
+        let pixels = cw as usize * ch as usize;
+        let mut accumulator = Accumulator::new(cw, ch);
+        let mut stats = RayStats::default();
+        let mut active: Option<Vec<bool>> = None;
+        let (mut pixel_passes, mut samples_per_pass) = (0u64, 0u64);
         for pass in 0usize.. {
             // Pass 0 keeps the seed, so a one-pass render is the plain render.
             let seed = if pass == 0 {
@@ -423,45 +534,63 @@ impl Job<'_> {
             } else {
                 raylume_integrator::sampler::splitmix(self.settings.seed.wrapping_add(pass as u64))
             };
-            let settings = RenderSettings { spp, seed, ..*self.settings };
-            let sampler = make_sampler(seed, spp);
-            let n = sampler.samples_per_pixel() as u64;
-            let (film, s) = render(world, camera, &sampler, integrator, &settings, self.observer);
+            let settings = RenderSettings { spp: plan.pass_spp, seed, ..*self.settings };
+            let sampler = make_sampler(seed, plan.pass_spp);
+            samples_per_pass = sampler.samples_per_pixel() as u64;
+            let pass_start = Instant::now();
+            let mask = active.as_deref();
+            let (film, s) = render_pass(world, camera, &sampler, integrator, &settings, self.observer, mask);
             if self.observer.cancelled() {
                 return Err(SceneError::Cancelled);
             }
+            let pass_seconds = pass_start.elapsed().as_secs_f64();
             stats += s;
-            acc = Some(match acc {
-                None => film,
-                Some(prev) => {
-                    let (wa, wb) = (total as f32 / (total + n) as f32, n as f32 / (total + n) as f32);
-                    let pixels = prev.pixels().iter().zip(film.pixels()).map(|(a, b)| *a * wa + *b * wb).collect();
-                    Film::from_pixels(film.width(), film.height(), pixels)
-                }
-            });
-            total += n;
-            let film = acc.as_ref().expect("a pass was rendered");
-            let progress = Progress { film, samples_per_pixel: total, seconds: start.elapsed().as_secs_f64(), pass };
-            match on_pass(&progress) {
-                ControlFlow::Break(()) => break,
-                ControlFlow::Continue(next) if (1..=limits::MAX_SPP).contains(&next) => spp = next,
-                ControlFlow::Continue(next) => {
-                    return Err(SceneError::Invalid(format!(
-                        "progressive pass of {next} samples per pixel: expected 1..={}",
-                        limits::MAX_SPP
-                    )));
-                }
+            accumulator.add_pass(&film, mask);
+            let rendered = mask.map_or(pixels, |m| m.iter().filter(|&&a| a).count());
+            pixel_passes += rendered as u64;
+            let image = accumulator.film();
+            let estimate = accumulator.estimate();
+            let most = accumulator.passes().iter().copied().max().unwrap_or(0) as u64;
+            let progress = Progress {
+                film: &image,
+                samples_per_pixel: most * samples_per_pass,
+                mean_samples_per_pixel: (pixel_passes * samples_per_pass) as f64 / pixels.max(1) as f64,
+                seconds: start.elapsed().as_secs_f64(),
+                pass,
+                pixels_rendered: rendered,
+                estimate,
+                accumulator: &accumulator,
+            };
+            if on_pass(&progress).is_break() || (most + 1) * samples_per_pass > limits::MAX_SPP as u64 {
+                break;
             }
+            if plan.noise_threshold.is_some_and(|e| estimate.is_some_and(|est| est.rmse <= e)) {
+                break;
+            }
+            let uniform_passes = pass as u32 + 1 < ADAPTIVE_MIN_PASSES.max(2);
+            let next = if plan.adaptive && !uniform_passes { accumulator.noisy_pixels() } else { None };
+            let next_pixels = next.as_ref().map_or(pixels, |m| m.iter().filter(|&&a| a).count());
+            if next_pixels == 0 {
+                break;
+            }
+            if let Some(limit) = plan.time_limit {
+                let expected = pass_seconds * next_pixels as f64 / rendered.max(1) as f64;
+                if self.started.elapsed().as_secs_f64() + expected > limit {
+                    break;
+                }
+            } else if !plan.budget() && pixel_passes >= plan.passes as u64 * pixels as u64 {
+                break;
+            }
+            active = next;
         }
-        let film = acc.expect("the loop renders a pass before it stops");
-        Ok(Rendered { film, stats, seconds: start.elapsed().as_secs_f64(), samples_per_pixel: total })
+        Ok(Rendered { accumulator, stats, seconds: start.elapsed().as_secs_f64(), samples_per_pass })
     }
 }
 
 /// What the passes of a render made.
 struct Rendered {
-    film: Film,
+    accumulator: Accumulator,
     stats: RayStats,
     seconds: f64,
-    samples_per_pixel: u64,
+    samples_per_pass: u64,
 }

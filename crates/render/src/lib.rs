@@ -31,9 +31,10 @@ mod env;
 pub mod limits;
 mod options;
 
-pub use assemble::{Primitives, Progress};
+pub use assemble::{PassSplit, Primitives, Progress, pass_split};
 pub use env::load_cubemap;
-pub use options::{Features, RenderOptions, RenderOutput, SamplerKind};
+pub use options::{ADAPTIVE_MIN_PASSES, DEFAULT_PASSES, Features, RenderOptions, RenderOutput, SamplerKind};
+pub use raylume_integrator::{Accumulator, Estimate};
 pub use raylume_integrator::{CancelToken, Observer};
 
 /// Rendering a [`Scene`]: the methods are [`Scene`]'s once the trait is in scope (it is in
@@ -67,7 +68,9 @@ pub trait RenderScene {
     /// its own `spp`, accelerator hint and cubemap. The effects the scene and options use
     /// ([`RenderScene::features`]) choose one of a small set of monomorphised render loops
     /// (accelerator, camera, sampler and soft-shadow mode are type parameters), so the work of an
-    /// unused effect is absent from the loop rather than skipped per ray.
+    /// unused effect is absent from the loop rather than skipped per ray. The samples are drawn in
+    /// independent passes ([`RenderOptions::passes`]); their spread is the image's estimated error
+    /// ([`RenderOutput::estimate`]).
     ///
     /// ```
     /// use raylume_render::{CancelToken, RenderOptions, RenderScene};
@@ -75,7 +78,10 @@ pub trait RenderScene {
     /// let scene = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
     /// let small = RenderOptions { resolution: Some((16, 10)), ..RenderOptions::default() };
     /// let out = scene.render(&small, &()).unwrap();
-    /// assert_eq!(out.samples_per_pixel, 16); // the scene's `spp 16`
+    /// assert_eq!(out.samples_per_pixel, 16); // the scene's `spp 16`,
+    /// assert_eq!(out.passes, 4); // in 4 passes of 4,
+    /// let estimate = out.estimate.unwrap(); // whose spread estimates the image's error
+    /// assert!(estimate.rmse_interval.0 <= estimate.rmse && estimate.rmse <= estimate.rmse_interval.1);
     ///
     /// let cancel = CancelToken::new();
     /// cancel.cancel();
@@ -83,34 +89,40 @@ pub trait RenderScene {
     /// ```
     fn render<O: Observer + ?Sized>(&self, options: &RenderOptions, observer: &O) -> Result<RenderOutput, SceneError>;
 
-    /// Renders progressively, for as long as `on_pass` asks: a first pass of the samples per pixel
-    /// [`RenderScene::samples_per_pixel`] gives, then after each pass `on_pass` gets the image so far
-    /// (the sample-weighted mean of the passes, each with its own seed) and the time spent, and
-    /// returns [`ControlFlow::Continue`] with the samples of the next pass, or
-    /// [`ControlFlow::Break`] to stop there (a time budget, a target quality). The passes always
-    /// sample the pixel area (antialiasing on), so every pass estimates the same image. `observer`
-    /// works as in [`RenderScene::render`], within passes.
+    /// Renders as [`RenderScene::render`] does, pass by pass, and hands `on_pass` each pass's
+    /// [`Progress`]: the image so far, the samples, the time spent and the estimated error. It
+    /// returns [`ControlFlow::Continue`] to let the render go on as its options say (the passes of
+    /// [`RenderOptions::passes`], or until a budget: [`RenderOptions::time_limit`],
+    /// [`RenderOptions::noise_threshold`]) or [`ControlFlow::Break`] to stop after this pass, with
+    /// the image so far (a user's stop button, a signal, a target of its own). `observer` works as
+    /// in [`RenderScene::render`], within passes.
     ///
     /// ```
     /// use std::ops::ControlFlow;
     /// use raylume_render::{RenderOptions, RenderScene};
     /// use raylume_scene::{p3f, DEFAULT_SCENE};
     /// let scene = p3f::parse(DEFAULT_SCENE, "default", &Default::default()).unwrap().scene;
-    /// let options = RenderOptions { resolution: Some((16, 10)), spp: Some(1), ..RenderOptions::default() };
+    /// // Passes of 4 samples per pixel, for as long as the callback lets them go on.
+    /// let options = RenderOptions {
+    ///     resolution: Some((16, 10)),
+    ///     spp: Some(4),
+    ///     passes: 1,
+    ///     time_limit: Some(f64::INFINITY),
+    ///     ..RenderOptions::default()
+    /// };
     /// let mut seen = Vec::new();
     /// let out = scene.render_progressive(&options, &(), |p| {
-    ///     seen.push(p.samples_per_pixel);
-    ///     // Passes of 1, 3 and 8 samples: 3 and 8 round up to 4 and 9 jittered samples.
-    ///     if p.samples_per_pixel >= 10 { ControlFlow::Break(()) } else { ControlFlow::Continue([3, 8][p.pass]) }
+    ///     seen.push((p.samples_per_pixel, p.estimate.is_some()));
+    ///     if p.pass == 2 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
     /// }).unwrap();
-    /// assert_eq!(seen, [1, 5, 14]);
-    /// assert_eq!(out.samples_per_pixel, 14);
-    /// assert_eq!(out.film.width(), 16);
+    /// assert_eq!(seen, [(4, false), (8, true), (12, true)]);
+    /// assert_eq!((out.samples_per_pixel, out.passes), (12, 3));
+    /// assert!(out.estimate.unwrap().rmse > 0.0);
     /// ```
     fn render_progressive<O: Observer + ?Sized>(
         &self,
         options: &RenderOptions,
         observer: &O,
-        on_pass: impl FnMut(&Progress) -> ControlFlow<(), u32>,
+        on_pass: impl FnMut(&Progress) -> ControlFlow<()>,
     ) -> Result<RenderOutput, SceneError>;
 }

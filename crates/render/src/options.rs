@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 
 use raylume_accel::{AccelKind, GridParams};
-use raylume_integrator::{Film, Profile, RayStats, RenderSettings};
+use raylume_integrator::{Estimate, Film, Profile, RayStats, RenderSettings};
 use raylume_scene::{SceneError, Warning};
 
 use crate::limits;
@@ -49,7 +49,35 @@ pub struct RenderOptions {
     /// The shading rules (plain, or the course's reference renders'); it overrides `settings.profile`.
     /// The depth stays `settings.max_depth` (the course profile's images use [`Profile::default_depth`]).
     pub profile: Profile,
+    /// The passes a render's samples are drawn in: each pass takes an equal share of the samples
+    /// per pixel with its own seed, so the passes are independent estimates of the image and their
+    /// spread estimates its error ([`RenderOutput::estimate`]). 1 draws all the samples as one
+    /// stratified set, with no estimate. A render of `spp` samples takes at most `passes` passes,
+    /// the split that draws the fewest samples in all (a jittered pass rounds its share up to a
+    /// square: 16 samples are 4 passes of 2 x 2, 8 are 2 of 2 x 2), and of those the most passes; one
+    /// sample per pixel (the pixel centre) is one pass. Budgeted renders draw passes of
+    /// `spp / passes` samples (rounded up) over the pixel's area for as long as they go on.
+    pub passes: u32,
+    /// Render passes until this many seconds have gone (building the accelerator included): a pass
+    /// is not started if it would end past the limit, except the first. `f64::INFINITY` renders
+    /// until [`RenderScene::render_progressive`](crate::RenderScene::render_progressive)'s callback
+    /// stops it.
+    pub time_limit: Option<f64>,
+    /// Render passes until the estimated RMSE of the image (linear RGB, [`Estimate::rmse`]) is at
+    /// most this.
+    pub noise_threshold: Option<f64>,
+    /// Adaptive sampling: after [`ADAPTIVE_MIN_PASSES`] passes over every pixel, further passes
+    /// cover only the pixels whose estimated error falls most from another pass, and their
+    /// neighbours ([`Accumulator::noisy_pixels`](raylume_integrator::Accumulator::noisy_pixels)).
+    /// Without a budget the render takes as many samples as the uniform render would, in all.
+    pub adaptive: bool,
 }
+
+/// Passes over every pixel before adaptive sampling chooses pixels.
+pub const ADAPTIVE_MIN_PASSES: u32 = 4;
+/// Passes a render takes by default ([`RenderOptions::passes`]): enough for the error estimate,
+/// few enough that each pass keeps a stratified set of samples.
+pub const DEFAULT_PASSES: u32 = 4;
 
 /// Which sampler draws the samples of antialiased renders.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -100,6 +128,15 @@ impl RenderOptions {
         check("focal distance", self.focal, "a finite number > 0", |x| x > 0.0)?;
         check("specular scale", Some(self.specular_scale), "a finite number >= 0", |x| x >= 0.0)?;
         self.grid.validate().map_err(SceneError::Invalid)?;
+        if !(1..=limits::MAX_SPP).contains(&self.passes) {
+            return invalid(format!("passes {}: expected 1..={}", self.passes, limits::MAX_SPP));
+        }
+        if let Some(t) = self.time_limit.filter(|t| t.is_nan() || *t <= 0.0) {
+            return invalid(format!("time limit {t}: expected seconds > 0"));
+        }
+        if let Some(e) = self.noise_threshold.filter(|e| !e.is_finite() || *e <= 0.0) {
+            return invalid(format!("noise threshold {e}: expected an RMSE > 0"));
+        }
         if let Some((t0, t1)) = self.shutter.filter(|(t0, t1)| !(t0.is_finite() && t1.is_finite() && t0 <= t1)) {
             return invalid(format!("shutter [{t0}, {t1}] is not an interval"));
         }
@@ -126,6 +163,10 @@ impl Default for RenderOptions {
             grid: GridParams::default(),
             sampler: SamplerKind::default(),
             profile: Profile::Plain,
+            passes: DEFAULT_PASSES,
+            time_limit: None,
+            noise_threshold: None,
+            adaptive: false,
         }
     }
 }
@@ -177,8 +218,16 @@ pub struct RenderOutput {
     /// The effects the render used.
     pub features: Features,
     /// Samples each pixel got: what the sampler drew (a jittered sampler rounds up to a square),
-    /// summed over the passes of a progressive render.
+    /// summed over the passes; with adaptive sampling, what the most sampled pixels got.
     pub samples_per_pixel: u64,
+    /// Samples per pixel over the whole image (below `samples_per_pixel` with adaptive sampling).
+    pub mean_samples_per_pixel: f64,
+    /// The passes rendered (with adaptive sampling, the passes of the most sampled pixels).
+    pub passes: u32,
+    /// The image's estimated error, from the spread of its passes (`None` with one pass).
+    pub estimate: Option<Estimate>,
+    /// The estimated variance of each pixel's value, per channel (`None` with one pass).
+    pub variance: Option<Film>,
     /// Seconds spent building the accelerator.
     pub build_seconds: f64,
     /// Seconds spent tracing.

@@ -55,10 +55,15 @@ fn renders_report_the_samples_their_sampler_drew() {
         let options = RenderOptions { spp: Some(spp), sampler, ..small() };
         scene.render(&options, &()).unwrap().samples_per_pixel
     };
+    // At most four passes of equal share, as few samples as the sampler allows beyond those asked.
     assert_eq!(drawn(SamplerKind::Sobol, 8), 8);
-    assert_eq!(drawn(SamplerKind::Independent, 5), 5);
-    assert_eq!(drawn(SamplerKind::Jittered, 8), 9);
+    assert_eq!(drawn(SamplerKind::Independent, 5), 6, "3 passes of 2");
+    assert_eq!(drawn(SamplerKind::Jittered, 8), 8, "2 passes of 2 x 2");
+    assert_eq!(drawn(SamplerKind::Jittered, 16), 16, "4 passes of 2 x 2");
+    assert_eq!(drawn(SamplerKind::Jittered, 9), 12, "3 passes of 3, rounded up to 2 x 2");
     assert_eq!(drawn(SamplerKind::Jittered, 1), 1);
+    let one_pass = |spp| RenderOptions { spp: Some(spp), passes: 1, ..small() };
+    assert_eq!(scene.render(&one_pass(9), &()).unwrap().samples_per_pixel, 9, "one pass of 3 x 3");
     let zero = RenderOptions { spp: Some(0), ..small() };
     assert_eq!(scene.render(&zero, &()).unwrap_err().to_string(), "spp 0: expected 1..=65536 samples per pixel");
 }
@@ -71,7 +76,7 @@ fn an_observer_hears_every_row_and_a_token_cancels_from_another_thread() {
         rows.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     };
     scene.render(&small(), &count).unwrap();
-    assert_eq!(rows.load(std::sync::atomic::Ordering::Relaxed), 10);
+    assert_eq!(rows.load(std::sync::atomic::Ordering::Relaxed), 10 * 4, "each row of the 4 passes");
 
     // Cancelled while it runs (by the first finished row), the render stops with an error.
     let cancel = CancelToken::new();
@@ -87,7 +92,7 @@ fn an_observer_hears_every_row_and_a_token_cancels_from_another_thread() {
     let result = scene.render_progressive(&small(), &cancel, |_| {
         passes += 1;
         cancel.cancel();
-        ControlFlow::Continue(4)
+        ControlFlow::Continue(())
     });
     assert!(matches!(result, Err(SceneError::Cancelled)));
     assert_eq!(passes, 1);
@@ -96,18 +101,77 @@ fn an_observer_hears_every_row_and_a_token_cancels_from_another_thread() {
 #[test]
 fn a_progressive_render_runs_until_its_callback_stops_it() {
     let scene = default_scene();
-    let options = RenderOptions { spp: Some(1), ..small() };
+    let options = RenderOptions { spp: Some(1), passes: 1, time_limit: Some(f64::INFINITY), ..small() };
     let mut seen = Vec::new();
     let out = scene
         .render_progressive(&options, &(), |p| {
             seen.push(p.samples_per_pixel);
-            if p.pass == 5 { ControlFlow::Break(()) } else { ControlFlow::Continue(4) }
+            if p.pass == 5 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
         })
         .unwrap();
-    assert_eq!(seen, [1, 5, 9, 13, 17, 21]);
-    assert_eq!(out.samples_per_pixel, 21);
-    let bad = scene.render_progressive(&options, &(), |_| ControlFlow::Continue(0)).unwrap_err();
-    assert_eq!(bad.to_string(), "progressive pass of 0 samples per pixel: expected 1..=65536");
+    assert_eq!(seen, [1, 2, 3, 4, 5, 6]);
+    assert_eq!((out.samples_per_pixel, out.passes), (6, 6));
+    let bad = RenderOptions { passes: 0, ..options };
+    let refused = scene.render_progressive(&bad, &(), |_| ControlFlow::Continue(())).unwrap_err();
+    assert_eq!(refused.to_string(), "passes 0: expected 1..=65536");
+}
+
+#[test]
+fn budgets_stop_the_passes() {
+    let scene = default_scene();
+    // A noise threshold: passes go on until the estimate reaches it, and no longer.
+    let options = RenderOptions { spp: Some(4), passes: 1, noise_threshold: Some(0.02), ..small() };
+    let mut estimates = Vec::new();
+    let out = scene
+        .render_progressive(&options, &(), |p| {
+            estimates.push(p.estimate.map(|e| e.rmse));
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    let last = out.estimate.unwrap().rmse;
+    assert!(last <= 0.02, "stopped at {last}");
+    assert!(estimates[..estimates.len() - 1].iter().all(|e| e.is_none_or(|e| e > 0.02)), "{estimates:?}");
+    assert!(out.passes >= 3, "{} passes: the threshold needs several", out.passes);
+
+    // A time limit: the render ends by then (within a pass), having rendered more than one pass.
+    let options = RenderOptions { spp: Some(1), passes: 1, time_limit: Some(0.5), ..small() };
+    let start = std::time::Instant::now();
+    let out = scene.render(&options, &()).unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    assert!(out.passes > 1, "{} passes in {seconds} s", out.passes);
+    let pass = out.render_seconds / out.passes as f64;
+    assert!(seconds < 0.5 + 2.0 * pass + 0.1, "{seconds} s for a limit of 0.5 s and passes of {pass} s");
+
+    let refused = scene.render(&RenderOptions { time_limit: Some(-1.0), ..small() }, &()).unwrap_err();
+    assert_eq!(refused.to_string(), "time limit -1: expected seconds > 0");
+    let refused = scene.render(&RenderOptions { noise_threshold: Some(f64::NAN), ..small() }, &()).unwrap_err();
+    assert_eq!(refused.to_string(), "noise threshold NaN: expected an RMSE > 0");
+}
+
+#[test]
+fn adaptive_sampling_spends_the_uniform_samples_where_the_noise_is_the_same_on_any_thread_count() {
+    let scene = default_scene();
+    let options = RenderOptions {
+        spp: Some(32),
+        passes: 16,
+        adaptive: true,
+        resolution: Some((64, 40)),
+        ..RenderOptions::default()
+    };
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let a = one.install(|| scene.render(&options, &())).unwrap();
+    let b = three.install(|| scene.render(&options, &())).unwrap();
+    assert_eq!(a.film, b.film, "the same image on one thread and on three");
+    assert_eq!(a.variance, b.variance);
+    // As many samples as the uniform render (8 passes of 2 x 2), within one pass's worth, spread
+    // unevenly.
+    let uniform = 32.0;
+    assert!((a.mean_samples_per_pixel - uniform).abs() <= 4.0 + 1e-9, "{}", a.mean_samples_per_pixel);
+    assert!(a.samples_per_pixel > 32, "the noisiest pixels got more than the uniform render: {}", a.samples_per_pixel);
+    let v = a.variance.as_ref().unwrap();
+    let calm = (0..v.pixels().len()).filter(|&i| v.pixels()[i] == raylume_geometry::Vec3::ZERO).count();
+    assert!(calm > 0, "some pixels never vary");
 }
 
 /// A tilted square of two triangles under a light, with `normals` (per triangle corner) if any.
