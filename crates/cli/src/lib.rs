@@ -19,6 +19,9 @@ use raylume_scene::{DEFAULT_SCENE, Scene, p3f, procedural};
 
 mod bench;
 mod converge;
+mod display;
+mod preview;
+mod tev;
 
 #[derive(Parser)]
 #[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
@@ -135,6 +138,14 @@ struct RenderArgs {
     /// Print only warnings and errors: no progress bar, no summary.
     #[arg(short, long)]
     quiet: bool,
+    /// Show the image in a window as it renders; closing it (or Esc) stops the render and writes
+    /// what is done, S writes a snapshot. The window stays open on the final image until closed.
+    #[arg(long)]
+    preview: bool,
+    /// Stream the image as it renders to the tev image viewer listening at HOST:PORT (tev's port
+    /// is 14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    display_server: Option<String>,
 }
 
 #[derive(clap::Args)]
@@ -236,6 +247,9 @@ pub(crate) fn bad_input(message: impl ToString) -> Failure {
 /// Exit code of a run ended by a signal.
 pub const INTERRUPTED: u8 = 130;
 
+/// Exit code of a render stopped from its preview window, the image so far written.
+pub const STOPPED: u8 = 3;
+
 /// Runs the command line of this process and returns its exit code.
 pub fn run() -> ExitCode {
     // A signal removes the temporary file of a write in progress, so that only the previous file or
@@ -255,6 +269,10 @@ pub fn run() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(f) if f.code == STOPPED => {
+            eprintln!("raylume: {}", f.message);
+            ExitCode::from(STOPPED)
+        }
         Err(f) => {
             eprintln!("raylume: error: {}", f.message);
             ExitCode::from(f.code)
@@ -326,6 +344,9 @@ fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
 /// The render's options from its flags, checked against the limits (nothing depends on the scene).
 fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
     check_threads(args.threads)?;
+    if let Some(server) = &args.display_server {
+        tev::parse_address(server).map_err(|e| bad_input(format!("--display-server {server}: {e}")))?;
+    }
     let profile = Profile::from(args.profile);
     let settings = RenderSettings {
         max_depth: args.depth.unwrap_or(profile.default_depth()),
@@ -425,13 +446,25 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     } else {
         ProgressBar::hidden()
     };
-    let out = pool.install(|| scene_render(&scene, &render_options, &bar))?;
+    let w = render_options.resolution.map_or(scene.view.width, |r| r.0);
+    let columns = settings.crop.map_or(w, |c| c[2].min(w).saturating_sub(c[0]));
+    let display = display::Display::start(&display_options(&args), columns, rows, spp, say(&bar))
+        .map_err(|message| Failure { code: 1, message })?;
+    let out = pool.install(|| scene_render(&scene, &render_options, &bar, display.as_ref()));
     bar.finish_and_clear();
+    let out = match (out, &display) {
+        (Err(_), Some(d)) if d.stop_requested() => return stopped_from_window(display, &args.output),
+        (out, _) => out?,
+    };
+    if let Some(d) = &display {
+        d.show_pass(&out.film, out.samples_per_pixel, out.render_seconds, None);
+    }
     for w in &out.warnings {
         eprintln!("{w}");
     }
     out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     if args.quiet {
+        display.map(display::Display::finish);
         return Ok(());
     }
     let s = out.stats;
@@ -456,7 +489,30 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         s.refraction,
         s.total() as f64 / out.render_seconds.max(1e-9) / 1e6
     );
+    display.map(display::Display::finish);
     Ok(())
+}
+
+/// Where `args` ask to watch the render.
+fn display_options(args: &RenderArgs) -> display::DisplayOptions {
+    display::DisplayOptions { preview: args.preview, server: args.display_server.clone(), output: args.output.clone() }
+}
+
+/// Lines for the user from the display threads, printed above the progress bar.
+fn say(bar: &ProgressBar) -> display::Say {
+    let bar = bar.clone();
+    std::sync::Arc::new(move |line: &str| bar.suspend(|| eprintln!("{line}")))
+}
+
+/// A render stopped from the preview window: the rows done are written, and the run ends with
+/// [`STOPPED`].
+fn stopped_from_window(display: Option<display::Display>, output: &Path) -> Result<(), Failure> {
+    let Some(display) = display else { return Ok(()) };
+    let film = display.image_so_far();
+    display.finish();
+    film.write(output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let message = format!("stopped from the preview window: wrote the rows done to {}", output.display());
+    Err(Failure { code: STOPPED, message })
 }
 
 /// Stack of each render thread: the ray tree's recursion to `limits::MAX_DEPTH` with room to spare.
@@ -466,8 +522,14 @@ fn scene_render(
     scene: &Scene,
     options: &RenderOptions,
     bar: &ProgressBar,
+    display: Option<&display::Display>,
 ) -> Result<raylume_render::RenderOutput, Failure> {
-    scene.render(options, &|| bar.inc(1)).map_err(bad_input)
+    let count = || bar.inc(1);
+    match display {
+        Some(d) => scene.render(options, &(count, d)),
+        None => scene.render(options, &count),
+    }
+    .map_err(bad_input)
 }
 
 fn accel_kind(a: AccelArg) -> AccelKind {
