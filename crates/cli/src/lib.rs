@@ -464,7 +464,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     }
     out.film.write(&args.output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     if args.quiet {
-        display.map(display::Display::finish);
+        if let Some(d) = display {
+            d.finish();
+        }
         return Ok(());
     }
     let s = out.stats;
@@ -489,7 +491,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         s.refraction,
         s.total() as f64 / out.render_seconds.max(1e-9) / 1e6
     );
-    display.map(display::Display::finish);
+    if let Some(d) = display {
+        d.finish();
+    }
     Ok(())
 }
 
