@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use minifb::{Key, KeyRepeat, Window, WindowOptions};
 use raylume_geometry::Vec3;
@@ -20,6 +20,9 @@ use crate::display::{FRAME, Say, Shared, title, to_u8};
 pub(crate) const MAX_WIDTH: u32 = 1600;
 /// Tallest window, in screen pixels.
 pub(crate) const MAX_HEIGHT: u32 = 1000;
+
+/// The longest time between two redraws of an unchanged image.
+const REDRAW: Duration = Duration::from_secs(1);
 
 /// Opens the window on a thread of its own (a window belongs to the thread that made it) and
 /// returns that thread, or why no window could be opened (no display, no X11 library).
@@ -76,6 +79,7 @@ fn show(mut window: Window, shared: &Shared, step: u32, name: &str, output: &Pat
     let mut seen = 0;
     let mut shown_title = String::new();
     let mut snapshots = 0;
+    let mut drawn: Option<Instant> = None;
     loop {
         let tick = Instant::now();
         if !window.is_open() || window.is_key_down(Key::Escape) {
@@ -101,14 +105,20 @@ fn show(mut window: Window, shared: &Shared, step: u32, name: &str, output: &Pat
                 *px = (to_u8(c.x) as u32) << 16 | (to_u8(c.y) as u32) << 8 | to_u8(c.z) as u32;
             }
         }
+        // The image goes to the X server only when it changed (and once a second, for a window
+        // uncovered meanwhile); else only the window's events are read.
+        let stale = drawn.is_none_or(|d| d.elapsed() >= REDRAW);
+        if (!rows.is_empty() || stale) && window.update_with_buffer(&buffer, w, h).is_ok() {
+            drawn = Some(Instant::now());
+        } else {
+            window.update();
+        }
+        // The title after the image: a title that says done comes with the final image shown.
         let elapsed = shared.start.elapsed().as_secs_f64();
         let t = title(name, &status, shared.height, elapsed, shared.stop_requested());
         if t != shown_title {
             window.set_title(&t);
             shown_title = t;
-        }
-        if window.update_with_buffer(&buffer, w, h).is_err() {
-            window.update();
         }
         if let Some(rest) = FRAME.checked_sub(tick.elapsed()) {
             std::thread::sleep(rest);

@@ -180,11 +180,6 @@ fn closing_the_preview_window_mid_render_writes_the_rows_done() {
     let rows_done = |t: &str| t.split(": ").nth(2).and_then(|s| s.split('/').next()?.parse::<u32>().ok());
     let (w, title) =
         wait_for_window(&conn, "raylume: partial.pfm", Duration::from_secs(120), |t| rows_done(t).unwrap_or(0) >= 8);
-    if let Ok(path) = std::env::var("RAYLUME_PREVIEW_SCREENSHOT") {
-        // The README's picture of the window mid-render.
-        let shot = screenshot(&conn, w, 160, 120);
-        image::RgbImage::from_raw(160, 120, shot).unwrap().save(path).unwrap();
-    }
     assert!(rows_done(&title).unwrap() < 120, "{title}");
     close(&conn, w);
     let (code, stderr) = wait_exit(&mut child, Duration::from_secs(120));
@@ -214,6 +209,33 @@ fn closing_the_preview_window_mid_render_writes_the_rows_done() {
     // The rows not done are black.
     let black = (0..120).filter(|y| !done.contains(y)).all(|y| row(&partial, y).iter().all(|p| *p == glam::Vec3::ZERO));
     assert!(black);
+}
+
+/// Takes the README's picture of the window mid-render (assets/preview.png) and prints its title:
+/// `cargo test --release -p raylume-cli --test display -- --ignored readme`.
+#[test]
+#[ignore = "writes assets/preview.png for the README"]
+fn readme_screenshot_of_the_window_mid_render() {
+    let Some(x) = xvfb("readme_screenshot_of_the_window_mid_render") else { return };
+    let dir = temp_dir("readme");
+    let mut child = raylume()
+        .args(["render", "--width", "320", "--height", "200", "--spp", "256", "--threads", "2", "--preview", "-o"])
+        .arg(dir.join("out.png"))
+        .env("DISPLAY", &x.display)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let conn = RustConnection::connect(Some(&x.display)).unwrap().0;
+    let rows_done = |t: &str| t.split(": ").nth(2).and_then(|s| s.split('/').next()?.parse::<u32>().ok());
+    let (w, title) =
+        wait_for_window(&conn, "raylume: out.png", Duration::from_secs(300), |t| rows_done(t).unwrap_or(0) >= 112);
+    let shot = screenshot(&conn, w, 320, 200);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/preview.png");
+    image::RgbImage::from_raw(320, 200, shot).unwrap().save(&path).unwrap();
+    println!("{}: the window titled '{title}'", path.display());
+    close(&conn, w);
+    let (code, stderr) = wait_exit(&mut child, Duration::from_secs(120));
+    assert_eq!(code, 3, "{stderr}");
 }
 
 #[test]
