@@ -165,7 +165,11 @@ impl Display {
             let client = crate::tev::Client::connect(server).map_err(|e| format!("--display-server {server}: {e}"))?;
             let (shared, say) = (shared.clone(), say.clone());
             let image = format!("raylume {name}");
-            threads.push(std::thread::spawn(move || crate::tev::stream(client, &image, &shared, &say)));
+            let thread = std::thread::Builder::new()
+                .name("raylume-tev".into())
+                .spawn(move || crate::tev::stream(client, &image, &shared, &say))
+                .map_err(|e| format!("--display-server {server}: {e}"))?;
+            threads.push(thread);
         }
         let mut window = false;
         if options.preview {

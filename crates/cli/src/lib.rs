@@ -2,8 +2,9 @@
 //! and convergence. The binary is [`run`]; [`check_arguments`] is its validation of a command line,
 //! everything it checks before any work starts.
 //!
-//! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 130
-//! ended by a signal (SIGINT, SIGTERM, SIGHUP), which leaves no partial output file.
+//! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 3
+//! stopped from the preview window (the rows done written), 130 ended by a signal (SIGINT, SIGTERM,
+//! SIGHUP), which leaves no partial output file.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

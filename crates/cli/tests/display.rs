@@ -382,6 +382,32 @@ fn a_tev_server_receives_the_image_as_it_renders_and_rebuilds_it_exactly() {
 }
 
 #[test]
+fn a_display_server_that_goes_away_leaves_the_render_going_on() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    // The viewer reads the first message, then closes the connection.
+    let server = std::thread::spawn(move || {
+        let (mut stream, _) = listener.accept().unwrap();
+        let mut first = [0u8; 5];
+        stream.read_exact(&mut first).unwrap();
+        first[4]
+    });
+    let dir = temp_dir("gone");
+    let out = dir.join("out.png");
+    let run = raylume()
+        .args(["render", "--width", "96", "--height", "64", "--spp", "256", "--threads", "2"])
+        .args(["--display-server", &address, "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert_eq!(server.join().unwrap(), 2, "the first message is CloseImage");
+    assert!(out.exists());
+    assert!(stderr.matches("lost the connection to tev").count() <= 1, "{stderr}");
+}
+
+#[test]
 fn an_unreachable_or_malformed_display_server_is_refused_before_rendering() {
     let port = TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     // The listener is dropped: nothing listens on the port.
