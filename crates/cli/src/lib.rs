@@ -3,9 +3,9 @@
 //! everything it checks before any work starts.
 //!
 //! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 3 a
-//! render stopped early by a signal (SIGINT, SIGTERM, SIGHUP) at the end of a pass, with the image
-//! so far written, 130 ended by a signal at once (a second signal during a render, or any other
-//! command), which leaves no partial output file.
+//! render stopped early, with the image so far written: by a signal (SIGINT, SIGTERM, SIGHUP) at the
+//! end of a pass, or from the preview window; 130 ended by a signal at once (a second signal during
+//! a render, or any other command), which leaves no partial output file.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -21,7 +21,10 @@ use raylume_scene::{DEFAULT_SCENE, p3f, procedural};
 
 mod bench;
 mod converge;
+mod display;
+mod preview;
 mod report;
+mod tev;
 
 #[derive(Parser)]
 #[command(name = "raylume", version, about = "raylume: a Whitted and distribution ray tracer")]
@@ -156,6 +159,14 @@ struct RenderArgs {
     /// Write the estimated error of each pass against time to DIR/error.csv and DIR/error.png.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
+    /// Show the image in a window as it renders; closing it (or Esc) stops the render and writes
+    /// what is done, S writes a snapshot. The window stays open on the final image until closed.
+    #[arg(long)]
+    preview: bool,
+    /// Stream the image as it renders to the tev image viewer listening at HOST:PORT (tev's port
+    /// is 14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    display_server: Option<String>,
 }
 
 #[derive(clap::Args)]
@@ -256,7 +267,8 @@ pub(crate) fn bad_input(message: impl ToString) -> Failure {
 
 /// Exit code of a run ended by a signal.
 pub const INTERRUPTED: u8 = 130;
-/// Exit code of a render that a signal stopped early: the image so far was written.
+/// Exit code of a render stopped early (a signal, the preview window closed): the image so far was
+/// written.
 pub const STOPPED_EARLY: u8 = 3;
 /// Passes of an adaptive render without `--passes`: four over every pixel, then twelve passes'
 /// worth of samples where the error is.
@@ -293,6 +305,10 @@ pub fn run() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(f) if f.code == STOPPED_EARLY => {
+            eprintln!("raylume: {}", f.message);
+            ExitCode::from(STOPPED_EARLY)
+        }
         Err(f) => {
             eprintln!("raylume: error: {}", f.message);
             ExitCode::from(f.code)
@@ -364,6 +380,9 @@ fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
 /// The render's options from its flags, checked against the limits (nothing depends on the scene).
 fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
     check_threads(args.threads)?;
+    if let Some(server) = &args.display_server {
+        tev::parse_address(server).map_err(|e| bad_input(format!("--display-server {server}: {e}")))?;
+    }
     let profile = Profile::from(args.profile);
     let settings = RenderSettings {
         max_depth: args.depth.unwrap_or(profile.default_depth()),
@@ -480,6 +499,10 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     } else {
         ProgressBar::hidden()
     };
+    let w = render_options.resolution.map_or(scene.view.width, |r| r.0);
+    let columns = settings.crop.map_or(w, |c| c[2].min(w).saturating_sub(c[0]));
+    let display = display::Display::start(&display_options(&args), columns, rows, spp, say(&bar))
+        .map_err(|message| Failure { code: 1, message })?;
     let mut report = Vec::new();
     GRACEFUL.store(true, std::sync::atomic::Ordering::SeqCst);
     let rendered = pool.install(|| {
@@ -492,19 +515,33 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
                 Some(e) => format!("pass {}, {:.1} spp, RMSE ~ {:.2e}", p.pass + 1, p.mean_samples_per_pixel, e.rmse),
                 None => format!("pass {}, {:.1} spp", p.pass + 1, p.mean_samples_per_pixel),
             });
-            if STOP.load(std::sync::atomic::Ordering::SeqCst) {
+            if let Some(d) = &display {
+                d.show_pass(p.film, p.samples_per_pixel, p.seconds, p.estimate.map(|e| e.rmse));
+            }
+            let window_closed = display.as_ref().is_some_and(|d| d.stop_requested());
+            if STOP.load(std::sync::atomic::Ordering::SeqCst) || window_closed {
                 std::ops::ControlFlow::Break(())
             } else {
                 std::ops::ControlFlow::Continue(())
             }
         };
-        scene.render_progressive(&render_options, &|| bar.inc(1), on_pass).map_err(bad_input)
+        let count = || bar.inc(1);
+        match &display {
+            Some(d) => scene.render_progressive(&render_options, &(count, d), on_pass),
+            None => scene.render_progressive(&render_options, &count, on_pass),
+        }
+        .map_err(bad_input)
     });
     // From here a signal ends the process at once (the write leaves no partial file).
     GRACEFUL.store(false, std::sync::atomic::Ordering::SeqCst);
-    let out = rendered?;
-    let stopped = STOP.load(std::sync::atomic::Ordering::SeqCst);
     bar.finish_and_clear();
+    // The window closed during the first pass cancels it: its rows done are the image.
+    let out = match (rendered, &display) {
+        (Err(_), Some(d)) if d.stop_requested() => return stopped_from_window(display, &args.output),
+        (out, _) => out?,
+    };
+    let window_closed = display.as_ref().is_some_and(|d| d.stop_requested());
+    let stopped = STOP.load(std::sync::atomic::Ordering::SeqCst) || window_closed;
     for w in &out.warnings {
         eprintln!("{w}");
     }
@@ -517,12 +554,19 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let done = if stopped {
         Err(Failure {
             code: STOPPED_EARLY,
-            message: format!("stopped by a signal: wrote the image of {} passes", out.passes),
+            message: format!(
+                "stopped {}: wrote the image of {} passes",
+                if window_closed { "from the preview window" } else { "by a signal" },
+                out.passes
+            ),
         })
     } else {
         Ok(())
     };
     if args.quiet {
+        if let Some(d) = display {
+            d.finish();
+        }
         return done;
     }
     let s = out.stats;
@@ -560,6 +604,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
             eprintln!("raylume: estimated error: none (one pass; --passes 2 or more, or --spp 2 or more, gives one)")
         }
     }
+    if let Some(d) = display {
+        d.finish();
+    }
     done
 }
 
@@ -569,6 +616,28 @@ fn scene_title(args: &RenderArgs) -> String {
         (Some(p), _) | (None, Some(p)) => p.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()),
         (None, None) => "default scene".to_owned(),
     }
+}
+
+/// Where `args` ask to watch the render.
+fn display_options(args: &RenderArgs) -> display::DisplayOptions {
+    display::DisplayOptions { preview: args.preview, server: args.display_server.clone(), output: args.output.clone() }
+}
+
+/// Lines for the user from the display threads, printed above the progress bar.
+fn say(bar: &ProgressBar) -> display::Say {
+    let bar = bar.clone();
+    std::sync::Arc::new(move |line: &str| bar.suspend(|| eprintln!("{line}")))
+}
+
+/// A render stopped from the preview window: the rows done are written, and the run ends with
+/// [`STOPPED_EARLY`].
+fn stopped_from_window(display: Option<display::Display>, output: &Path) -> Result<(), Failure> {
+    let Some(display) = display else { return Ok(()) };
+    let film = display.image_so_far();
+    display.finish();
+    film.write(output).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let message = format!("stopped from the preview window: wrote the rows done to {}", output.display());
+    Err(Failure { code: STOPPED_EARLY, message })
 }
 
 /// Stack of each render thread: the ray tree's recursion to `limits::MAX_DEPTH` with room to spare.

@@ -148,6 +148,11 @@ pub trait Observer: Sync {
     /// Called once per finished image row.
     fn row_done(&self) {}
 
+    /// Called with the pixels of finished rows (a row, or a band of rows where camera rays are
+    /// gathered): `pixels` holds rows `first_row..` of the film (crop coordinates, row 0 at the top),
+    /// `width` pixels each.
+    fn rows_done(&self, _first_row: u32, _width: u32, _pixels: &[Vec3]) {}
+
     /// Whether the render is to stop; rows not started yet are then left out.
     fn cancelled(&self) -> bool {
         false
@@ -166,6 +171,11 @@ impl<A: Observer, B: Observer> Observer for (A, B) {
     fn row_done(&self) {
         self.0.row_done();
         self.1.row_done();
+    }
+
+    fn rows_done(&self, first_row: u32, width: u32, pixels: &[Vec3]) {
+        self.0.rows_done(first_row, width, pixels);
+        self.1.rows_done(first_row, width, pixels);
     }
 
     fn cancelled(&self) -> bool {
@@ -287,11 +297,12 @@ where
             }
             if band > 1 {
                 let first_row = y0 + (task * band) as u32;
-                let band = (x0, first_row, cw as usize);
-                gathered_band(world, camera, sampler, integrator, band, out, mask, &mut stats);
+                let rows = (x0, first_row, cw as usize);
+                gathered_band(world, camera, sampler, integrator, rows, out, mask, &mut stats);
                 for _ in 0..out.len() / cw as usize {
                     observer.row_done();
                 }
+                observer.rows_done((task * band) as u32, cw, out);
                 return stats;
             }
             let row = task;
@@ -315,6 +326,7 @@ where
                 *px = if spp == 1 { sum } else { sum * inv };
             }
             observer.row_done();
+            observer.rows_done(row as u32, cw, out);
             stats
         })
         .reduce(RayStats::default, |mut a, b| {

@@ -309,6 +309,10 @@ impl<O: Observer + ?Sized> Observer for Dyn<'_, O> {
         self.0.row_done()
     }
 
+    fn rows_done(&self, first_row: u32, width: u32, pixels: &[raylume_geometry::Vec3]) {
+        self.0.rows_done(first_row, width, pixels)
+    }
+
     fn cancelled(&self) -> bool {
         self.0.cancelled()
     }
