@@ -1,11 +1,13 @@
-//! What adaptive sampling gains: each scene is rendered uniformly and adaptively with the same
-//! number of samples in all, and both are measured against a high-sample reference. The gain is the
-//! ratio of error² · time (uniform over adaptive; above 1, adaptive wins), and of error² · samples,
-//! which the machine's load does not move.
+//! What adaptive sampling gains at equal time: each scene is rendered progressively, in passes of
+//! `--pass-spp` samples, until the same time limit, once uniformly and once adaptively, and both
+//! are measured against a high-sample reference. The gain is the ratio of error² · time (uniform over
+//! adaptive; above 1, adaptive wins), the median over `--runs` alternating runs. The time limit is
+//! the time a uniform render of `--spp` samples takes.
 //!
-//! `cargo run --release --example adaptive_sampling -- [--width W] [--spp N] [--reference-spp N]
-//! [--runs R] [SCENE...]`; without scenes, those of assets/scenes and ../shared/scenes with local
-//! noise (soft shadows, depth of field, motion blur, fuzzy reflections, glass).
+//! `cargo run --release --example adaptive_sampling -- [--width W] [--spp N] [--pass-spp N]
+//! [--reference-spp N] [--runs R] [SCENE...]`; without scenes, those of assets/scenes and
+//! ../shared/scenes with local noise (soft shadows, depth of field, motion blur, fuzzy reflections,
+//! glass).
 
 use std::path::PathBuf;
 
@@ -15,7 +17,7 @@ use raylume_render::SamplerKind;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let (mut width, mut spp, mut reference_spp, mut runs) = (160u32, 64u32, 4096u32, 3usize);
+    let (mut width, mut spp, mut reference_spp, mut runs, mut pass_spp) = (160u32, 64u32, 4096u32, 3usize, 4u32);
     let mut scenes = Vec::<PathBuf>::new();
     while let Some(a) = args.next() {
         let mut value = || args.next().ok_or(format!("{a}: expected a value"));
@@ -24,6 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--spp" => spp = value()?.parse()?,
             "--reference-spp" => reference_spp = value()?.parse()?,
             "--runs" => runs = value()?.parse()?,
+            "--pass-spp" => pass_spp = value()?.parse()?,
             _ => scenes.push(a.into()),
         }
     }
@@ -36,9 +39,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     println!(
-        "| scene | uniform RMSE | adaptive RMSE | uniform s | adaptive s | gain, error² · time | gain, error² · samples |"
+        "| scene | time limit (s) | uniform RMSE (spp, s) | adaptive RMSE (mean spp, s) | gain, error² · time | estimated / true RMSE, uniform / adaptive |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|");
     let (mut wins, mut worst, mut count) = (0, f64::INFINITY, 0);
     for path in &scenes {
         let name = path.file_stem().map_or(String::new(), |s| s.to_string_lossy().into_owned());
@@ -54,30 +57,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let reference = scene.render(&reference, &())?;
         let exact = reference.film.channels();
         let reference_mse = reference.estimate.map_or(0.0, |e| e.mse);
-        let measure = |adaptive: bool| -> Result<(f64, f64, f64), Box<dyn std::error::Error>> {
-            let mut o = RenderOptions { spp: Some(spp), adaptive, ..base.clone() };
-            o.passes = if adaptive { 16 } else { raylume_render::DEFAULT_PASSES };
-            // The median time of a few runs (the same image each time).
-            let mut times = Vec::new();
-            let mut last = None;
-            for _ in 0..runs {
-                let out = scene.render(&o, &())?;
-                times.push(out.render_seconds);
-                last = Some(out);
-            }
-            times.sort_by(f64::total_cmp);
-            let out = last.expect("runs >= 1");
+        // The time limit: a uniform render of `spp` samples in passes of `pass_spp`.
+        let passes = spp.div_ceil(pass_spp);
+        let calibration = RenderOptions { spp: Some(passes * pass_spp), passes, ..base.clone() };
+        let limit = scene.render(&calibration, &())?.render_seconds;
+        let measure = |adaptive: bool| -> Result<(f64, f64, f64, f64), Box<dyn std::error::Error>> {
+            let o = RenderOptions { spp: Some(pass_spp), passes: 1, time_limit: Some(limit), adaptive, ..base.clone() };
+            let out = scene.render(&o, &())?;
             let mse = (metrics::mse(&out.film.channels(), &exact).ok_or("sizes differ")? - reference_mse).max(1e-30);
-            Ok((mse, times[times.len() / 2], out.mean_samples_per_pixel))
+            let estimated = out.estimate.map_or(f64::NAN, |e| e.rmse);
+            Ok((mse, out.render_seconds, out.mean_samples_per_pixel, estimated))
         };
-        let (mse_u, t_u, s_u) = measure(false)?;
-        let (mse_a, t_a, s_a) = measure(true)?;
+        let (mut uniform, mut adaptive) = (Vec::new(), Vec::new());
+        for _ in 0..runs {
+            uniform.push(measure(false)?);
+            adaptive.push(measure(true)?);
+        }
+        let median = |v: &mut Vec<(f64, f64, f64, f64)>| {
+            v.sort_by(|a, b| (a.0 * a.1).total_cmp(&(b.0 * b.1)));
+            v[v.len() / 2]
+        };
+        let ((mse_u, t_u, s_u, e_u), (mse_a, t_a, s_a, e_a)) = (median(&mut uniform), median(&mut adaptive));
         let gain_time = (mse_u * t_u) / (mse_a * t_a);
-        let gain_samples = (mse_u * s_u) / (mse_a * s_a);
         println!(
-            "| {name} | {:.3e} | {:.3e} | {t_u:.3} | {t_a:.3} | {gain_time:.2} | {gain_samples:.2} |",
+            "| {name} | {limit:.3} | {:.3e} ({s_u:.0} spp, {t_u:.3} s) | {:.3e} ({s_a:.0} spp, {t_a:.3} s) | {gain_time:.2} | {:.2} / {:.2} |",
             mse_u.sqrt(),
-            mse_a.sqrt()
+            mse_a.sqrt(),
+            e_u / mse_u.sqrt(),
+            e_a / mse_a.sqrt()
         );
         count += 1;
         wins += usize::from(gain_time >= 1.5);

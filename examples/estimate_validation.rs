@@ -5,7 +5,7 @@
 //! within ±20 %.
 //!
 //! `cargo run --release --example estimate_validation -- [--width W] [--reference-spp N]
-//! [--spp 4,16,64,256,1024] [--csv FILE] [SCENE...]`; without scenes, the five of assets/scenes and
+//! [--spp 4,16,64,256,1024] [--passes K] [--csv FILE] [SCENE...]`; without scenes, the five of assets/scenes and
 //! six of ../shared/scenes.
 
 use std::fmt::Write as _;
@@ -18,6 +18,7 @@ use raylume_render::SamplerKind;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let (mut width, mut reference_spp, mut spp_list) = (96u32, 8192u32, vec![4u32, 16, 64, 256, 1024]);
+    let mut passes = raylume_render::DEFAULT_PASSES;
     let (mut csv_path, mut scenes) = (None::<PathBuf>, Vec::<PathBuf>::new());
     while let Some(a) = args.next() {
         let mut value = || args.next().ok_or(format!("{a}: expected a value"));
@@ -26,6 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--reference-spp" => reference_spp = value()?.parse()?,
             "--spp" => spp_list = value()?.split(',').map(str::parse).collect::<Result<_, _>>()?,
             "--csv" => csv_path = Some(value()?.into()),
+            "--passes" => passes = value()?.parse()?,
             _ => scenes.push(a.into()),
         }
     }
@@ -74,11 +76,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         eprintln!("{name}: reference {reference_spp} spp in {:.1} s", reference.render_seconds);
         for sampler in [SamplerKind::Independent, SamplerKind::Jittered, SamplerKind::Sobol] {
             for &spp in &spp_list {
-                let out = render(spp, 1, sampler, raylume_render::DEFAULT_PASSES)?;
+                let out = render(spp, 1, sampler, passes)?;
                 let measured = metrics::mse(&out.film.channels(), &exact).ok_or("sizes differ")?;
                 let truth = (measured - reference_mse).max(0.0).sqrt();
                 let sampler_name = format!("{sampler:?}").to_lowercase();
                 let Some(e) = out.estimate else {
+                    let _ = writeln!(csv, "{name},{sampler_name},{spp},{:.4},{truth:.6e},,,,", out.render_seconds);
                     let _ = writeln!(table, "| {name} | {sampler_name} | {spp} | {truth:.3e} | none | |");
                     cells += 1;
                     continue;
