@@ -583,3 +583,52 @@ fn help_calls_the_aperture_a_radius() {
     assert!(!text.contains("diameter"), "{text}");
     assert!(text.contains("--quiet"), "{text}");
 }
+
+/// Every render says its estimated error; `--report` writes it per pass against time, and a budget
+/// or adaptive sampling render as many passes as they need.
+#[test]
+fn renders_report_their_estimated_error_per_pass() {
+    let dir = temp_dir("report");
+    let report = dir.join("report");
+    let run = raylume()
+        .args(["render", "--width", "32", "--height", "20", "--spp", "16", "--report"])
+        .arg(&report)
+        .arg("-o")
+        .arg(dir.join("out.exr"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(stderr.contains("raylume: estimated error RMSE ") && stderr.contains("over 4 passes"), "{stderr}");
+    let csv = std::fs::read_to_string(report.join("error.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "pass,seconds,mean_spp,pixels_rendered,est_rmse,est_rmse_low,est_rmse_high,est_rel_mse");
+    assert_eq!(lines.len(), 1 + 4, "one row per pass: {csv}");
+    let rmse: Vec<f64> = lines[1..].iter().map(|l| l.split(',').nth(4).unwrap().parse().unwrap()).collect();
+    assert!(rmse[0].is_nan() && rmse[1..].iter().all(|e| e.is_finite() && *e > 0.0), "{csv}");
+    assert_eq!(&std::fs::read(report.join("error.png")).unwrap()[1..4], b"PNG");
+
+    // One pass: no estimate, and the summary says so.
+    let run = raylume()
+        .args(["render", "--width", "32", "--height", "20", "--spp", "16", "--passes", "1", "-o"])
+        .arg(dir.join("one.png"))
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&run.stderr).contains("estimated error: none (one pass"));
+
+    // A noise threshold and adaptive sampling.
+    let run = raylume()
+        .args(["render", "--width", "32", "--height", "20", "--spp", "4", "--noise-threshold", "0.02", "--adaptive"])
+        .arg("-o")
+        .arg(dir.join("adaptive.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    let rmse: f64 = stderr.split("estimated error RMSE ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!(rmse <= 0.02, "{stderr}");
+    assert!(stderr.contains("(adaptive: "), "{stderr}");
+    let refused = raylume().args(["render", "--time-limit", "0"]).output().unwrap();
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("time limit 0: expected seconds > 0"));
+}
