@@ -105,7 +105,8 @@ fn lattice(bounds: Aabb, cells: [usize; 3]) -> [[f64; 3]; 3] {
 /// The cell of coordinate `x` along axis `a` of a lattice, clamped to the grid.
 #[inline(always)]
 fn coord(x: f64, a: usize, corner: &[f64; 3], inv: &[f64; 3], cells: &[usize; 3]) -> usize {
-    (((x - corner[a]) * inv[a]).max(0.0) as usize).min(cells[a] - 1)
+    // Through u32 (at most 512 cells per axis): a shorter saturating conversion than to u64.
+    (((x - corner[a]) * inv[a]).max(0.0) as u32 as usize).min(cells[a] - 1)
 }
 
 /// The part of a ray's line (origin `o`, direction `d` along one axis) within `[lo, hi]` on that
