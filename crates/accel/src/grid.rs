@@ -63,7 +63,8 @@ const LARGE_SHRINK: f64 = 8.0;
 /// Mailbox slots per ray (direct-mapped by primitive index).
 const MAILBOX: usize = 32;
 
-/// A uniform grid over bounded primitives; unbounded ones (planes) are tested directly by every ray.
+/// A uniform grid over bounded primitives; unbounded ones (planes), and the few primitives as large as
+/// the scene (a floor under a model, see `large_primitives`), are tested directly by every ray.
 ///
 /// The course's mailbox (a ray id stored in each primitive) is not safe when several threads trace
 /// at once. raylume's mailbox lives in the ray's traversal instead: a small direct-mapped table of the
