@@ -1,7 +1,7 @@
 //! A uniform grid with 3D-DDA traversal (Amanatides and Woo) and per-ray mailboxing.
 
-use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
-use raylume_intersect::Intersect;
+use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec3A};
+use raylume_intersect::{Intersect, ShearedRay, TriangleHit, watertight_decide, watertight_hits};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
@@ -52,10 +52,19 @@ const MAX_CELLS: u64 = 1 << 25;
 /// much that they would take more is built coarser, so its size stays bounded by its input's.
 const ENTRIES_PER_PRIMITIVE: u64 = 64;
 const MIN_ENTRY_BUDGET: u64 = 1 << 24;
+/// The flag of an item (an entry of a cell or of the direct list) that is a triangle: `TRIANGLE | j`
+/// is `triangles[j]`, any other item `i` is `prims[i]`.
+const TRIANGLE: u32 = 1 << 31;
+
+/// Most primitives [`large_primitives`] takes out of the grid.
+const MAX_LARGE: usize = 8;
+/// How much smaller in volume the box of the other primitives must be for them to be taken out.
+const LARGE_SHRINK: f64 = 8.0;
 /// Mailbox slots per ray (direct-mapped by primitive index).
 const MAILBOX: usize = 32;
 
-/// A uniform grid over bounded primitives; unbounded ones (planes) are tested directly by every ray.
+/// A uniform grid over bounded primitives; unbounded ones (planes), and the few primitives as large as
+/// the scene (a floor under a model, see `large_primitives`), are tested directly by every ray.
 ///
 /// The course's mailbox (a ray id stored in each primitive) is not safe when several threads trace
 /// at once. raylume's mailbox lives in the ray's traversal instead: a small direct-mapped table of the
@@ -64,17 +73,26 @@ const MAILBOX: usize = 32;
 #[derive(Clone, Debug)]
 pub struct Grid<P> {
     prims: Vec<P>,
-    unbounded: Vec<u32>,
+    /// The primitives every ray tests before its walk: unbounded ones and [`large_primitives`].
+    direct: Vec<u32>,
     bounds: Aabb,
     cells: [usize; 3],
     /// The lattice in f64: its corner, cell size and the size's reciprocal. Cells are entered and walked
     /// in f64, where neither the walk nor a far ray origin loses the cell a hit is in.
     corner: [f64; 3],
     cell_size: [f64; 3],
+    /// The far corner of the box in f64.
+    upper: [f64; 3],
     inv_cell_size: [f64; 3],
     /// `cell_start[c]..cell_start[c + 1]` indexes `items` for cell `c`.
     cell_start: Vec<u32>,
+    /// The cells' [items](Item), in cell order.
     items: Vec<u32>,
+    /// The triangles among `prims`, which the queries test with one [`ShearedRay`] per ray and whose
+    /// full hit they build for the closest only; `triangle_ids[j]` is the primitive index of
+    /// `triangles[j]`.
+    triangles: Vec<Triangle>,
+    triangle_ids: Vec<u32>,
     mailbox: bool,
 }
 
@@ -88,7 +106,46 @@ fn lattice(bounds: Aabb, cells: [usize; 3]) -> [[f64; 3]; 3] {
 /// The cell of coordinate `x` along axis `a` of a lattice, clamped to the grid.
 #[inline(always)]
 fn coord(x: f64, a: usize, corner: &[f64; 3], inv: &[f64; 3], cells: &[usize; 3]) -> usize {
-    (((x - corner[a]) * inv[a]).max(0.0) as usize).min(cells[a] - 1)
+    // Through u32 (at most 512 cells per axis): a shorter saturating conversion than to u64.
+    (((x - corner[a]) * inv[a]).max(0.0) as u32 as usize).min(cells[a] - 1)
+}
+
+/// The part of a ray's line (origin `o`, direction `d` along one axis) within `[lo, hi]` on that
+/// axis: `(near, far)`, empty (near beyond far) where a ray parallel to the axis's planes is outside.
+#[inline(always)]
+fn slab(lo: f64, hi: f64, o: f64, d: f64) -> (f64, f64) {
+    if d == 0.0 {
+        if o < lo || o > hi { (f64::INFINITY, f64::NEG_INFINITY) } else { (f64::NEG_INFINITY, f64::INFINITY) }
+    } else {
+        let (ta, tb) = ((lo - o) / d, (hi - o) / d);
+        if d > 0.0 { (ta, tb) } else { (tb, ta) }
+    }
+}
+
+/// The larger of two numbers that are not NaN (one instruction, where `f64::max` takes several).
+#[inline(always)]
+fn max(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
+/// The smaller of two numbers that are not NaN.
+#[inline(always)]
+fn min(a: f64, b: f64) -> f64 {
+    if a < b { a } else { b }
+}
+
+/// Where a ray's walk starts along one axis.
+struct AxisStart {
+    /// The cell the ray enters the grid in, along the axis.
+    cell: usize,
+    /// The ray parameter where it leaves that cell along the axis.
+    next: f64,
+    /// The ray parameter across one cell along the axis.
+    delta: f64,
+    /// The step of the cell index to the next cell along the axis.
+    stride: usize,
+    /// How many steps are left along the axis before the ray leaves the grid.
+    left: usize,
 }
 
 /// The cells a box is entered in, per axis: its f64 extent widened by a relative 2^-40, far more than
@@ -100,6 +157,31 @@ fn cell_range(b: &Aabb, [corner, _, inv]: &[[f64; 3]; 3], cells: &[usize; 3]) ->
         let slack = (lo.abs().max(hi.abs()) + corner[a].abs()) * (1.0 / (1u64 << 40) as f64);
         (coord(lo - slack, a, corner, inv, cells), coord(hi + slack, a, corner, inv, cells))
     })
+}
+
+/// The primitives to test directly rather than enter in the grid: at most [`MAX_LARGE`] boxes that each
+/// span more than half the scene's box along some axis (a floor under a model), when the box of the
+/// others is at most [`LARGE_SHRINK`] times smaller in volume. Such a primitive would stretch the
+/// lattice over the whole scene, and crowd the rest into a few cells; tested by every ray it costs one
+/// test a ray, and its hit shortens the ray's walk.
+fn large_primitives(prim_bounds: &[Aabb]) -> Vec<u32> {
+    let finite = || prim_bounds.iter().filter(|b| b.is_finite() && !b.is_empty());
+    let all = finite().fold(Aabb::EMPTY, |a, b| a.union(*b));
+    if all.is_empty() {
+        return Vec::new();
+    }
+    let half = all.diagonal() * 0.5;
+    let spans = |b: &Aabb| b.is_finite() && !b.is_empty() && b.diagonal().cmpgt(half).any();
+    let large: Vec<u32> = (0..prim_bounds.len() as u32).filter(|&i| spans(&prim_bounds[i as usize])).collect();
+    if large.is_empty() || large.len() > MAX_LARGE {
+        return Vec::new();
+    }
+    let rest = finite().filter(|b| !spans(b)).fold(Aabb::EMPTY, |a, b| a.union(*b));
+    let volume = |b: Aabb| {
+        let d = b.diagonal().as_dvec3();
+        d.x * d.y * d.z
+    };
+    if rest.is_empty() || volume(rest) * LARGE_SHRINK <= volume(all) { large } else { Vec::new() }
 }
 
 /// How many cell entries the bounded boxes of `prim_bounds` make in a grid of `cells` over `bounds`.
@@ -116,19 +198,21 @@ impl<P: Intersect> Grid<P> {
     /// Builds the grid over `prims`; moving primitives are entered in every cell their motion
     /// during `shutter` covers.
     pub fn new(prims: Vec<P>, shutter: Interval, params: GridParams) -> Self {
+        let prim_bounds: Vec<Aabb> = prims.iter().map(|p| p.bounds_over(shutter)).collect();
+        let mut direct_ids: Vec<u32> =
+            (0..prims.len() as u32).filter(|&i| !prim_bounds[i as usize].is_finite()).collect();
+        let large = large_primitives(&prim_bounds);
+        direct_ids.extend(&large);
+        direct_ids.sort_unstable();
         let mut bounds = Aabb::EMPTY;
-        let mut unbounded = Vec::new();
-        let mut prim_bounds = Vec::with_capacity(prims.len());
-        for (i, p) in prims.iter().enumerate() {
-            let b = p.bounds_over(shutter);
-            if b.is_finite() {
-                bounds = bounds.union(b);
-            } else {
-                unbounded.push(i as u32);
-            }
-            prim_bounds.push(b);
+        let mut prim_bounds = prim_bounds;
+        for i in &large {
+            prim_bounds[*i as usize] = Aabb::EMPTY;
         }
-        let bounded = prims.len() - unbounded.len();
+        for b in prim_bounds.iter().filter(|b| b.is_finite()) {
+            bounds = bounds.union(*b);
+        }
+        let bounded = prims.len() - direct_ids.len();
         if bounds.is_empty() {
             bounds = Aabb::from_point(Vec3A::ZERO);
         }
@@ -154,16 +238,34 @@ impl<P: Intersect> Grid<P> {
             per_unit *= 0.8;
         };
         let [corner, cell_size, inv_cell_size] = lattice(bounds, cells);
+        assert!(prims.len() < TRIANGLE as usize, "a grid holds fewer than 2^31 primitives");
+        let (mut triangles, mut triangle_ids) = (Vec::new(), Vec::new());
+        let item: Vec<u32> = prims
+            .iter()
+            .enumerate()
+            .map(|(i, p)| match p.as_triangle() {
+                Some(t) => {
+                    triangles.push(t);
+                    triangle_ids.push(i as u32);
+                    TRIANGLE | (triangles.len() - 1) as u32
+                }
+                None => i as u32,
+            })
+            .collect();
+        let direct = direct_ids.iter().map(|&i| item[i as usize]).collect();
         let mut grid = Self {
             prims,
-            unbounded,
+            direct,
             bounds,
             cells,
             corner,
             cell_size,
+            upper: bounds.max.to_array().map(f64::from),
             inv_cell_size,
             cell_start: Vec::new(),
             items: Vec::new(),
+            triangles,
+            triangle_ids,
             mailbox: params.mailbox,
         };
         // Two passes: count the entries of each cell, then fill them (compressed rows).
@@ -184,7 +286,7 @@ impl<P: Intersect> Grid<P> {
         for (i, b) in prim_bounds.iter().enumerate() {
             if b.is_finite() && !b.is_empty() {
                 grid.for_cells(b, |c| {
-                    items[fill[c] as usize] = i as u32;
+                    items[fill[c] as usize] = item[i];
                     fill[c] += 1;
                 });
             }
@@ -221,47 +323,60 @@ impl<P: Intersect> Grid<P> {
         }
     }
 
-    /// Walks the cells the ray crosses within `[t_min, t_max]`, nearest first, calling `visit` with
-    /// each cell's primitives and the ray parameter where the ray leaves the cell (rounded down, so
-    /// that a hit beyond it is beyond the cell); `visit` returns false to stop. In f64: the cells are
-    /// those the ray's exact line crosses, wherever its origin is.
+    /// Where the walk of a ray with origin `o` and direction `d` along axis `a` starts, entering the grid
+    /// at `t0`.
+    #[inline(always)]
+    fn start(&self, a: usize, o: f64, d: f64, t0: f64) -> AxisStart {
+        let (corner, size, n) = (self.corner[a], self.cell_size[a], self.cells[a]);
+        let cell = coord(o + d * t0, a, &self.corner, &self.inv_cell_size, &self.cells);
+        let stride = [1, self.cells[0], self.cells[0] * self.cells[1]][a];
+        // A zero component (0 or -0) never steps on that axis.
+        if d > 0.0 {
+            let next = (corner + (cell + 1) as f64 * size - o) / d;
+            AxisStart { cell, next, delta: size / d, stride, left: n - 1 - cell }
+        } else if d < 0.0 {
+            let next = (corner + cell as f64 * size - o) / d;
+            AxisStart { cell, next, delta: -size / d, stride: stride.wrapping_neg(), left: cell }
+        } else {
+            AxisStart { cell, next: f64::INFINITY, delta: f64::INFINITY, stride: 0, left: 0 }
+        }
+    }
+
+    /// Walks the cells the ray crosses within `[t_min, t_max]`, nearest first, calling `visit` with the
+    /// primitives of each cell that has some; `visit` returns the end of the ray's range so far (the
+    /// closest hit's distance, or minus infinity to stop), and the walk stops at the first cell that
+    /// starts at or beyond it. In f64: the cells are those the ray's exact line crosses, wherever its
+    /// origin is. Returns the number of cells walked.
     #[inline]
-    fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[u32], f32) -> bool) {
-        let (o, d) = (ray.origin.to_array().map(f64::from), ray.dir.to_array().map(f64::from));
-        let (mut t0, mut t1) = (t_min as f64, t_max as f64);
-        for a in 0..3 {
-            let (lo, hi) = (self.bounds.min[a] as f64, self.bounds.max[a] as f64);
-            if d[a] == 0.0 {
-                if o[a] < lo || o[a] > hi {
-                    return;
-                }
-                continue;
-            }
-            let (ta, tb) = ((lo - o[a]) / d[a], (hi - o[a]) / d[a]);
-            t0 = t0.max(ta.min(tb));
-            t1 = t1.min(ta.max(tb));
+    fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[u32]) -> f32) -> u32 {
+        // Written out per axis: array maps and loops over axes here are left as calls and loops.
+        let (o, d) = (ray.origin, ray.dir);
+        let (o, d) = ([o.x as f64, o.y as f64, o.z as f64], [d.x as f64, d.y as f64, d.z as f64]);
+        // A NaN end leaves the range open on that side, to the grid's box.
+        let t0 = if t_min.is_nan() { f64::NEG_INFINITY } else { t_min as f64 };
+        let t1 = if t_max.is_nan() { f64::INFINITY } else { t_max as f64 };
+        let slab = |a: usize| slab(self.corner[a], self.upper[a], o[a], d[a]);
+        let ((n0, f0), (n1, f1), (n2, f2)) = (slab(0), slab(1), slab(2));
+        let t0 = max(max(t0, n0), max(n1, n2));
+        let t1 = min(min(t1, f0), min(f1, f2));
+        if t0 > t1 {
+            return 0;
         }
-        if t0.is_nan() || t1.is_nan() || t0 > t1 {
-            return;
-        }
-        let (corner, size, inv) = (&self.corner, &self.cell_size, &self.inv_cell_size);
-        let mut cell = [0, 1, 2].map(|a| coord(o[a] + d[a] * t0, a, corner, inv, &self.cells));
-        let mut next = [f64::INFINITY; 3];
-        let mut delta = [f64::INFINITY; 3];
-        let mut step = [0isize; 3];
-        for a in 0..3 {
-            // A zero component (0 or -0) never steps on that axis.
-            if d[a] > 0.0 {
-                step[a] = 1;
-                next[a] = (corner[a] + (cell[a] + 1) as f64 * size[a] - o[a]) / d[a];
-                delta[a] = size[a] / d[a];
-            } else if d[a] < 0.0 {
-                step[a] = -1;
-                next[a] = (corner[a] + cell[a] as f64 * size[a] - o[a]) / d[a];
-                delta[a] = -size[a] / d[a];
-            }
-        }
+        let start = |a: usize| self.start(a, o[a], d[a], t0);
+        let (s0, s1, s2) = (start(0), start(1), start(2));
+        let mut index = s0.cell + s1.cell * self.cells[0] + s2.cell * self.cells[0] * self.cells[1];
+        let mut next = [s0.next, s1.next, s2.next];
+        let delta = [s0.delta, s1.delta, s2.delta];
+        let stride = [s0.stride, s1.stride, s2.stride];
+        let mut left = [s0.left, s1.left, s2.left];
+        let mut end = f64::INFINITY;
+        let mut walked = 0;
         loop {
+            walked += 1;
+            let (first, last) = (self.cell_start[index], self.cell_start[index + 1]);
+            if first != last {
+                end = visit(&self.items[first as usize..last as usize]) as f64;
+            }
             let axis = if next[0] < next[1] {
                 if next[0] < next[2] { 0 } else { 2 }
             } else if next[1] < next[2] {
@@ -269,19 +384,12 @@ impl<P: Intersect> Grid<P> {
             } else {
                 2
             };
-            let exit = next[axis].min(t1);
-            let exit32 = exit as f32;
-            let exit32 = if exit32 as f64 > exit { exit32.next_down() } else { exit32 };
-            let c = self.cell_index(cell);
-            let items = &self.items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
-            if !visit(items, exit32) || next[axis] > t1 {
-                return;
+            // A hit within this cell (up to its far side) is closer than any in the next.
+            if next[axis] > t1 || next[axis] >= end || left[axis] == 0 {
+                return walked;
             }
-            let moved = cell[axis] as isize + step[axis];
-            if moved < 0 || moved >= self.cells[axis] as isize {
-                return;
-            }
-            cell[axis] = moved as usize;
+            left[axis] -= 1;
+            index = index.wrapping_add(stride[axis]);
             next[axis] += delta[axis];
         }
     }
@@ -314,60 +422,111 @@ impl Mailbox {
     }
 }
 
+/// The closest hit of a query so far: of a triangle (kept as its decision, with the triangle's
+/// number) and of another primitive, each the closest of its kind; the range narrows to both.
+struct Closest {
+    triangle: Option<(TriangleHit, u32)>,
+    other: Option<PrimitiveHit>,
+}
+
 impl<P: Intersect> Grid<P> {
+    /// Tests `item` for a closer hit than `found`'s within `t_range`, and narrows the range to it.
+    #[inline(always)]
+    fn closest_item(
+        &self,
+        item: u32,
+        ray: &Ray,
+        sheared: Option<&ShearedRay>,
+        t_range: &mut Interval,
+        found: &mut Closest,
+    ) {
+        if item & TRIANGLE != 0 {
+            let j = item & !TRIANGLE;
+            let Some(sheared) = sheared else { return };
+            if let Some(h) = watertight_decide(&self.triangles[j as usize], sheared, *t_range) {
+                let wins = match found.triangle {
+                    Some((f, k)) if f.t == h.t => self.triangle_ids[j as usize] < self.triangle_ids[k as usize],
+                    _ => true,
+                };
+                if wins {
+                    *t_range = t_range.with_max(h.t);
+                    found.triangle = Some((h, j));
+                }
+            }
+        } else if let Some(hit) = self.prims[item as usize].intersect_canonical(ray, *t_range) {
+            *t_range = t_range.with_max(hit.t);
+            found.other = PrimitiveHit::closer(found.other, PrimitiveHit { hit, primitive: item });
+        }
+    }
+
+    /// Whether `item` is hit within `(0, t_max)`.
+    #[inline(always)]
+    fn occludes(&self, item: u32, ray: &Ray, sheared: Option<&ShearedRay>, t_max: f32) -> bool {
+        if item & TRIANGLE != 0 {
+            let tri = &self.triangles[(item & !TRIANGLE) as usize];
+            sheared.is_some_and(|sheared| watertight_hits(tri, sheared, Interval::new(0.0, t_max)))
+        } else {
+            self.prims[item as usize].occluded_canonical(ray, t_max)
+        }
+    }
+
     /// [`Accelerator::closest_hit_tally`] of a canonical ray.
     #[inline(always)]
     fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        let mut best = None;
-        for &i in &self.unbounded {
+        let sheared = ShearedRay::new(ray);
+        let sheared = sheared.as_ref();
+        let mut found = Closest { triangle: None, other: None };
+        for &item in &self.direct {
             tally.tested();
-            if let Some(hit) = self.prims[i as usize].intersect_canonical(ray, t_range) {
-                t_range = t_range.with_max(hit.t);
-                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i });
-            }
+            self.closest_item(item, ray, sheared, &mut t_range, &mut found);
         }
         let mut mailbox = Mailbox::new(self.mailbox);
-        self.walk(ray, t_range.min, t_range.max, |items, exit| {
-            tally.visited();
-            for &i in items {
-                if mailbox.first_visit(i) {
+        let walked = self.walk(ray, t_range.min, t_range.max, |items| {
+            for &item in items {
+                if mailbox.first_visit(item) {
                     tally.tested();
-                    if let Some(hit) = self.prims[i as usize].intersect_canonical(ray, t_range) {
-                        t_range = t_range.with_max(hit.t);
-                        best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i });
-                    }
+                    self.closest_item(item, ray, sheared, &mut t_range, &mut found);
                 }
             }
-            // A hit beyond this cell may still be beaten by a primitive of a later cell.
-            t_range.max > exit
+            t_range.max
         });
-        best
+        (0..walked).for_each(|_| tally.visited());
+        let triangle = found.triangle.map(|(h, j)| PrimitiveHit {
+            hit: h.hit(&self.triangles[j as usize]),
+            primitive: self.triangle_ids[j as usize],
+        });
+        match (triangle, found.other) {
+            (Some(t), other) => PrimitiveHit::closer(other, t),
+            (None, other) => other,
+        }
     }
 
     /// [`Accelerator::occluded_tally`] of a canonical ray.
     #[inline(always)]
     fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
-        for &i in &self.unbounded {
+        let sheared = ShearedRay::new(ray);
+        let sheared = sheared.as_ref();
+        for &item in &self.direct {
             tally.tested();
-            if self.prims[i as usize].occluded_canonical(ray, t_max) {
+            if self.occludes(item, ray, sheared, t_max) {
                 return true;
             }
         }
         let mut mailbox = Mailbox::new(self.mailbox);
         let mut hit = false;
-        self.walk(ray, 0.0, t_max, |items, _| {
-            tally.visited();
-            for &i in items {
-                if mailbox.first_visit(i) {
+        let walked = self.walk(ray, 0.0, t_max, |items| {
+            for &item in items {
+                if mailbox.first_visit(item) {
                     tally.tested();
-                    if self.prims[i as usize].occluded_canonical(ray, t_max) {
+                    if self.occludes(item, ray, sheared, t_max) {
                         hit = true;
-                        return false;
+                        return f32::NEG_INFINITY;
                     }
                 }
             }
-            true
+            f32::INFINITY
         });
+        (0..walked).for_each(|_| tally.visited());
         hit
     }
 }
@@ -389,7 +548,9 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
         let bytes = std::mem::size_of_val(self.prims.as_slice())
             + std::mem::size_of_val(self.cell_start.as_slice())
             + std::mem::size_of_val(self.items.as_slice())
-            + std::mem::size_of_val(self.unbounded.as_slice());
+            + std::mem::size_of_val(self.triangles.as_slice())
+            + std::mem::size_of_val(self.triangle_ids.as_slice())
+            + std::mem::size_of_val(self.direct.as_slice());
         AccelStats { nodes: self.cells.iter().product(), bytes, primitives: self.prims.len() }
     }
 }

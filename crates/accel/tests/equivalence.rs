@@ -188,6 +188,52 @@ fn grid_mailbox_tests_fewer_primitives() {
     assert!((a as f64) < 0.8 * b as f64, "mailboxing must save tests: {a} vs {b}");
 }
 
+/// A model on a large floor, as in the course's scenes: the grid tests the floor's triangles directly
+/// and spans its lattice over the model only, and answers as brute force does, ties between the floor
+/// and the triangles lying in it included.
+#[test]
+fn grid_over_a_floor_matches_brute_force() {
+    let mut rng = Pcg32::new(17, 3);
+    let (a, b, c, d) = (
+        Vec3A::new(-20.0, -1.0, -20.0),
+        Vec3A::new(20.0, -1.0, -20.0),
+        Vec3A::new(20.0, -1.0, 20.0),
+        Vec3A::new(-20.0, -1.0, 20.0),
+    );
+    let mut prims: Vec<Primitive> =
+        tessellated_cube(Vec3A::new(0.0, 0.2, 0.0), 0.5, 6).into_iter().map(Primitive::Triangle).collect();
+    prims.extend((0..200).map(|_| Primitive::Sphere(Sphere { center: point(&mut rng, 1.0), radius: 0.05 })));
+    // Small triangles in the floor's plane, before and after it in index order: ties at one distance.
+    prims.push(Primitive::Triangle(Triangle::new(
+        Vec3A::new(-1.0, -1.0, -1.0),
+        Vec3A::new(1.0, -1.0, -1.0),
+        Vec3A::new(1.0, -1.0, 1.0),
+    )));
+    prims.extend([Triangle::new(a, b, c), Triangle::new(a, c, d), Triangle::new(a, b, c)].map(Primitive::Triangle));
+    prims.push(Primitive::Triangle(Triangle::new(
+        Vec3A::new(-1.0, -1.0, -1.0),
+        Vec3A::new(1.0, -1.0, 1.0),
+        Vec3A::new(-1.0, -1.0, 1.0),
+    )));
+    let still = Interval::new(0.0, 0.0);
+    let grid = Grid::new(prims.clone(), still, GridParams::default());
+    assert!(grid.resolution().iter().all(|&n| n >= 8), "a lattice over the model: {:?}", grid.resolution());
+    let brute = BruteForce::new(prims.clone());
+    let accels = all_accels(&prims, still);
+    let mut hits = 0;
+    for i in 0..4000 {
+        let o = point(&mut rng, 6.0) + Vec3A::new(0.0, 5.0, 0.0);
+        let target = if i % 2 == 0 {
+            point(&mut rng, 1.2)
+        } else {
+            point(&mut rng, 10.0) * Vec3A::new(1.0, 0.0, 1.0) - Vec3A::Y
+        };
+        let ray = Ray::new(o, (target - o).normalize());
+        hits += check_against_brute_force(&prims, &brute, &accels, &ray, uniform(&mut rng) * 20.0) as usize;
+    }
+    assert!(hits > 3000, "the rays must hit the model and the floor: {hits}");
+}
+
 fn arb_point(range: f32) -> impl Strategy<Value = Vec3A> {
     (-range..range, -range..range, -range..range).prop_map(|(x, y, z)| Vec3A::new(x, y, z))
 }
