@@ -2,10 +2,13 @@
 //! `--pass-spp` samples, until the same time limit, once uniformly and once adaptively, and both
 //! are measured against a high-sample reference. The gain is the ratio of error² · time (uniform over
 //! adaptive; above 1, adaptive wins), the median over `--runs` alternating runs. The time limit is
-//! the time a uniform render of `--spp` samples takes.
+//! the wall time a uniform render of `--spp` samples takes, set-up included.
+//!
+//! With `--equal-samples`, both renders take `--spp` samples with no budget instead: the uniform
+//! one in the default 4 passes, the adaptive one in 16.
 //!
 //! `cargo run --release --example adaptive_sampling -- [--width W] [--spp N] [--pass-spp N]
-//! [--reference-spp N] [--runs R] [SCENE...]`; without scenes, those of assets/scenes and
+//! [--reference-spp N] [--runs R] [--equal-samples] [SCENE...]`; without scenes, those of assets/scenes and
 //! ../shared/scenes with local noise (soft shadows, depth of field, motion blur, fuzzy reflections,
 //! glass).
 
@@ -19,6 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let (mut width, mut spp, mut reference_spp, mut runs, mut pass_spp) = (160u32, 64u32, 4096u32, 3usize, 4u32);
     let mut scenes = Vec::<PathBuf>::new();
+    let mut equal_samples = false;
     while let Some(a) = args.next() {
         let mut value = || args.next().ok_or(format!("{a}: expected a value"));
         match a.as_str() {
@@ -27,6 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--reference-spp" => reference_spp = value()?.parse()?,
             "--runs" => runs = value()?.parse()?,
             "--pass-spp" => pass_spp = value()?.parse()?,
+            "--equal-samples" => equal_samples = true,
             _ => scenes.push(a.into()),
         }
     }
@@ -60,9 +65,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // The time limit: a uniform render of `spp` samples in passes of `pass_spp`.
         let passes = spp.div_ceil(pass_spp);
         let calibration = RenderOptions { spp: Some(passes * pass_spp), passes, ..base.clone() };
-        let limit = scene.render(&calibration, &())?.render_seconds;
+        // The limit counts from the call (the cubemap's loading and the build included), as the
+        // calibration's wall time does.
+        let start = std::time::Instant::now();
+        scene.render(&calibration, &())?;
+        let limit = start.elapsed().as_secs_f64();
         let measure = |adaptive: bool| -> Result<(f64, f64, f64, f64), Box<dyn std::error::Error>> {
-            let o = RenderOptions { spp: Some(pass_spp), passes: 1, time_limit: Some(limit), adaptive, ..base.clone() };
+            let o = if equal_samples {
+                // No budget: `spp` samples, uniformly in the default passes, adaptively in 16.
+                let passes = if adaptive { 16 } else { raylume_render::DEFAULT_PASSES };
+                RenderOptions { spp: Some(spp), passes, adaptive, ..base.clone() }
+            } else {
+                RenderOptions { spp: Some(pass_spp), passes: 1, time_limit: Some(limit), adaptive, ..base.clone() }
+            };
             let out = scene.render(&o, &())?;
             let mse = (metrics::mse(&out.film.channels(), &exact).ok_or("sizes differ")? - reference_mse).max(1e-30);
             let estimated = out.estimate.map_or(f64::NAN, |e| e.rmse);

@@ -142,19 +142,21 @@ struct RenderArgs {
     #[arg(short, long)]
     quiet: bool,
     /// Draw the samples in this many independent passes of spp/K samples each, whose spread
-    /// estimates the image's error (1: one stratified set, no estimate). Default 4, 16 with --adaptive.
+    /// estimates the image's error (1: one stratified set, no estimate); with a budget, passes of
+    /// spp/K samples for as long as it lasts. Default 4.
     #[arg(long, value_name = "K")]
     passes: Option<u32>,
     /// Render passes until this many seconds have gone (scene loading excluded; a pass that would
     /// end past the limit is not started).
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", group = "budget")]
     time_limit: Option<f64>,
     /// Render passes until the estimated RMSE of the image (linear RGB) is at most E.
-    #[arg(long, value_name = "E")]
+    #[arg(long, value_name = "E", group = "budget")]
     noise_threshold: Option<f64>,
-    /// Adaptive sampling: after 4 passes over every pixel, give further passes to the pixels whose
-    /// estimated error is high (and their neighbours).
-    #[arg(long)]
+    /// Adaptive sampling, with a budget (--time-limit or --noise-threshold): after 4 passes over
+    /// every pixel, give further passes to the pixels whose estimated error is high (and their
+    /// neighbours).
+    #[arg(long, requires = "budget")]
     adaptive: bool,
     /// Write the estimated error of each pass against time to DIR/error.csv and DIR/error.png.
     #[arg(long, value_name = "DIR")]
@@ -270,9 +272,6 @@ pub const INTERRUPTED: u8 = 130;
 /// Exit code of a render stopped early (a signal, the preview window closed): the image so far was
 /// written.
 pub const STOPPED_EARLY: u8 = 3;
-/// Passes of an adaptive render without `--passes`: four over every pixel, then twelve passes'
-/// worth of samples where the error is.
-const ADAPTIVE_PASSES: u32 = 16;
 
 /// Set while a render can stop gracefully at the end of a pass: the first signal then asks it to.
 static GRACEFUL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -409,7 +408,7 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
         grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
         sampler: args.sampler.into(),
         profile,
-        passes: args.passes.unwrap_or(if args.adaptive { ADAPTIVE_PASSES } else { raylume_render::DEFAULT_PASSES }),
+        passes: args.passes.unwrap_or(raylume_render::DEFAULT_PASSES),
         time_limit: args.time_limit,
         noise_threshold: args.noise_threshold,
         adaptive: args.adaptive,
