@@ -181,7 +181,10 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
             format!("{sampler:?}").to_lowercase(),
             slope.map_or("n/a".to_owned(), |s| format!("{s:.2}"))
         );
-        series.push((label, times.iter().copied().zip(estimated.iter().copied()).collect()));
+        // Renders of one pass have no estimate: no line for them.
+        if estimated.iter().any(|e| e.is_finite()) {
+            series.push((label, times.iter().copied().zip(estimated.iter().copied()).collect()));
+        }
         let _ = writeln!(
             table,
             "{:<12} slope of log RMSE against log seconds: {}",
