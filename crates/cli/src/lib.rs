@@ -1,6 +1,7 @@
-//! The `raylume` command line: renders p3f scenes, writes procedural ones, measures accelerators
-//! and convergence. The binary is [`run`]; [`check_arguments`] is its validation of a command line,
-//! everything it checks before any work starts.
+//! The `raylume` command line: renders p3f scenes (whole, or in regions that `merge` assembles, for
+//! render farms), writes procedural ones, measures accelerators and convergence. The binary is
+//! [`run`]; [`check_arguments`] is its validation of a command line, everything it checks before
+//! any work starts.
 //!
 //! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 3 a
 //! render stopped early, with the image so far written: by a signal (SIGINT, SIGTERM, SIGHUP) at the
@@ -488,14 +489,15 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     }
     // A region of a farmed render is a crop.
     let full = render_options.resolution.unwrap_or((scene.view.width, scene.view.height));
-    if let Some(tile) = tile_of(&args)? {
+    let tile = tile_of(&args)?;
+    if let Some(tile) = tile {
         render_options.settings.crop = Some(tile.crop(full.0, full.1)?);
     }
     // What depends on the scene (its spp, the crop inside its image, the memory) before any work.
     scene.check(&render_options).map_err(bad_input)?;
     let spp = scene.samples_per_pixel(&render_options).map_err(bad_input)?;
     render_options.settings.spp = spp;
-    let part = match tile_of(&args)? {
+    let part = match tile {
         Some(tile) => {
             let file = args.scene.as_deref().or(args.mesh.as_deref());
             Some(farm::PartPlan::new(tile, file, DEFAULT_SCENE, &render_options, full)?)
