@@ -458,6 +458,26 @@ mod tests {
     }
 
     #[test]
+    fn the_scene_hash_follows_the_scene_and_the_pixels_settings_only() {
+        let options = RenderOptions::default();
+        let hash = |scene: &[u8], o: &RenderOptions| scene_hash(scene, o, (40, 25));
+        let base = hash(b"scene", &options);
+        assert_ne!(base, hash(b"scene ", &options));
+        assert_ne!(base, scene_hash(b"scene", &options, (40, 26)));
+        let mut seed = options.clone();
+        seed.settings.seed = 1;
+        assert_ne!(base, hash(b"scene", &seed));
+        let mut passes = options.clone();
+        passes.passes += 1;
+        assert_ne!(base, hash(b"scene", &passes));
+        let mut same = options.clone();
+        same.settings.crop = Some([0, 5, 40, 10]);
+        same.env_dirs.push(PathBuf::from("/elsewhere"));
+        same.strict = true;
+        assert_eq!(base, hash(b"scene", &same));
+    }
+
+    #[test]
     fn missing_rows_are_named_as_ranges() {
         assert_eq!(ranges(&[3, 4, 5, 9]), "3-5, 9");
     }

@@ -150,7 +150,8 @@ struct RenderArgs {
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     crop: Option<Vec<u32>>,
     /// Render region I of N (I from 0): the image split into N bands of whole rows, band I holding
-    /// rows floor(I*H/N) to floor((I+1)*H/N). The output must be .exr: a part for `raylume merge`.
+    /// rows floor(I*H/N) up to floor((I+1)*H/N), exclusive. The output must be .exr: a part for
+    /// `raylume merge`.
     #[arg(long, value_name = "I/N", conflicts_with_all = ["crop", "tile_from_env", "tiles"])]
     tile: Option<String>,
     /// Render the region whose index I (from 0) is the value of the environment variable VAR
