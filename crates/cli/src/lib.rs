@@ -1,6 +1,7 @@
-//! The `raylume` command line: renders p3f scenes, writes procedural ones, measures accelerators
-//! and convergence. The binary is [`run`]; [`check_arguments`] is its validation of a command line,
-//! everything it checks before any work starts.
+//! The `raylume` command line: renders p3f scenes (whole, or in regions that `merge` assembles, for
+//! render farms), writes procedural ones, measures accelerators and convergence. The binary is
+//! [`run`]; [`check_arguments`] is its validation of a command line, everything it checks before
+//! any work starts.
 //!
 //! Exit codes: 0 success, 2 bad input (arguments, scene, missing files), 1 any other failure, 3 a
 //! render stopped early, with the image so far written: by a signal (SIGINT, SIGTERM, SIGHUP) at the
@@ -22,6 +23,7 @@ use raylume_scene::{DEFAULT_SCENE, p3f, procedural};
 mod bench;
 mod converge;
 mod display;
+mod farm;
 mod preview;
 mod report;
 mod tev;
@@ -36,7 +38,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a p3f scene (the embedded default scene without SCENE) to an image.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Write a procedural scene (balls, tetra, mount, rings) of the given size as p3f to stdout.
     Gen {
         /// balls (sphereflake), tetra, mount or rings.
@@ -55,6 +57,15 @@ enum Command {
         a: PathBuf,
         /// The second image.
         b: PathBuf,
+    },
+    /// Assemble the regions rendered with `render --tile` into the full image, refusing parts of
+    /// different renders, overlapping parts and missing ones (see docs/FARM.md).
+    Merge {
+        /// The full image: .exr, .pfm or .png.
+        output: PathBuf,
+        /// The parts (.exr files written by `render --tile`).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
     },
 }
 
@@ -138,6 +149,18 @@ struct RenderArgs {
     /// The corners come in this order (pbrt's --pixelbounds takes X0 X1 Y0 Y1).
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
     crop: Option<Vec<u32>>,
+    /// Render region I of N (I from 0): the image split into N bands of whole rows, band I holding
+    /// rows floor(I*H/N) up to floor((I+1)*H/N), exclusive. The output must be .exr: a part for
+    /// `raylume merge`.
+    #[arg(long, value_name = "I/N", conflicts_with_all = ["crop", "tile_from_env", "tiles"])]
+    tile: Option<String>,
+    /// Render the region whose index I (from 0) is the value of the environment variable VAR
+    /// (such as SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX); give N with --tiles.
+    #[arg(long, value_name = "VAR", requires = "tiles", conflicts_with = "crop")]
+    tile_from_env: Option<String>,
+    /// The number of regions N of --tile-from-env.
+    #[arg(long, value_name = "N", requires = "tile_from_env")]
+    tiles: Option<u32>,
     /// Print only warnings and errors: no progress bar, no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -148,15 +171,15 @@ struct RenderArgs {
     passes: Option<u32>,
     /// Render passes until this many seconds have gone (scene loading excluded; a pass that would
     /// end past the limit is not started).
-    #[arg(long, value_name = "SECONDS", group = "budget")]
+    #[arg(long, value_name = "SECONDS", group = "budget", conflicts_with_all = ["tile", "tile_from_env"])]
     time_limit: Option<f64>,
     /// Render passes until the estimated RMSE of the image (linear RGB) is at most E.
-    #[arg(long, value_name = "E", group = "budget")]
+    #[arg(long, value_name = "E", group = "budget", conflicts_with_all = ["tile", "tile_from_env"])]
     noise_threshold: Option<f64>,
     /// Adaptive sampling, with a budget (--time-limit or --noise-threshold): after 4 passes over
     /// every pixel, give further passes to the pixels whose estimated error is high (and their
     /// neighbours).
-    #[arg(long, requires = "budget")]
+    #[arg(long, requires = "budget", conflicts_with_all = ["tile", "tile_from_env"])]
     adaptive: bool,
     /// Write the estimated error of each pass against time to DIR/error.csv and DIR/error.png.
     #[arg(long, value_name = "DIR")]
@@ -296,8 +319,9 @@ pub fn run() -> ExitCode {
     });
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render(args),
+        Command::Render(args) => render(*args),
         Command::Compare { a, b } => compare(&a, &b),
+        Command::Merge { output, parts } => farm::merge(&output, &parts),
         Command::Gen { name, size } => generate(&name, size),
         Command::Bench(args) => bench_command(args),
         Command::Converge(args) => converge::run(args),
@@ -354,7 +378,7 @@ fn check_threads(threads: Option<usize>) -> Result<(), Failure> {
 
 /// The output can be written: a format raylume writes, into a folder that exists (and, with
 /// `probe`, that takes a new file).
-fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
+pub(crate) fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
     raylume_integrator::ImageFormat::from_path(path).map_err(bad_input)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -379,6 +403,7 @@ fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
 /// The render's options from its flags, checked against the limits (nothing depends on the scene).
 fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
     check_threads(args.threads)?;
+    tile_of(args)?;
     if let Some(server) = &args.display_server {
         tev::parse_address(server).map_err(|e| bad_input(format!("--display-server {server}: {e}")))?;
     }
@@ -415,6 +440,11 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
     };
     options.validate().map_err(bad_input)?;
     Ok(options)
+}
+
+/// The region of `render --tile` or `--tile-from-env`.
+fn tile_of(args: &RenderArgs) -> Result<Option<farm::Tile>, Failure> {
+    farm::Tile::from_flags(args.tile.as_deref(), args.tile_from_env.as_deref(), args.tiles, &args.output)
 }
 
 /// A scene that did not load: the warnings found before the error are printed first.
@@ -457,10 +487,23 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         render_options.use_env &=
             raylume_scene::find_cubemap(name, &scene.cubemap_dirs(&render_options.env_dirs)).is_ok();
     }
+    // A region of a farmed render is a crop.
+    let full = render_options.resolution.unwrap_or((scene.view.width, scene.view.height));
+    let tile = tile_of(&args)?;
+    if let Some(tile) = tile {
+        render_options.settings.crop = Some(tile.crop(full.0, full.1)?);
+    }
     // What depends on the scene (its spp, the crop inside its image, the memory) before any work.
     scene.check(&render_options).map_err(bad_input)?;
     let spp = scene.samples_per_pixel(&render_options).map_err(bad_input)?;
     render_options.settings.spp = spp;
+    let part = match tile {
+        Some(tile) => {
+            let file = args.scene.as_deref().or(args.mesh.as_deref());
+            Some(farm::PartPlan::new(tile, file, DEFAULT_SCENE, &render_options, full)?)
+        }
+        None => None,
+    };
     let settings = render_options.settings;
     let split = raylume_render::pass_split(&render_options, spp);
     if let Some(passes) = split.passes.filter(|k| k * split.samples_per_pass != spp && !args.quiet) {
@@ -545,7 +588,10 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         eprintln!("{w}");
     }
     let attributes = report::attributes(&out, settings.seed, spp, &render_options);
-    let extras = raylume_integrator::Extras { variance: out.variance.as_ref(), attributes };
+    let mut extras = raylume_integrator::Extras { variance: out.variance.as_ref(), attributes, window: None };
+    if let Some(part) = &part {
+        part.add_to(&mut extras);
+    }
     out.film.write_with(&args.output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     if let Some(dir) = &args.report {
         report::write(dir, &report, &scene_title(&args))?;

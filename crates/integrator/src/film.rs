@@ -72,11 +72,24 @@ pub struct Extras<'a> {
     pub variance: Option<&'a Film>,
     /// Named attributes of the header (ASCII names, such as `raylume.spp`).
     pub attributes: Vec<(String, MetaValue)>,
+    /// Where the image lies in a larger one: it is written as the data window, and the larger
+    /// image as the display window (without it, both are the image itself).
+    pub window: Option<Window>,
+}
+
+/// The place of an image (a region) in a larger image: the OpenEXR data window's origin and the
+/// display window's size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    /// Column and row of the region's top-left pixel in the larger image.
+    pub origin: (u32, u32),
+    /// Width and height of the larger image.
+    pub full: (u32, u32),
 }
 
 impl Extras<'_> {
     fn is_empty(&self) -> bool {
-        self.variance.is_none() && self.attributes.is_empty()
+        self.variance.is_none() && self.attributes.is_empty() && self.window.is_none()
     }
 }
 
@@ -242,7 +255,8 @@ impl Film {
 
     /// [`Film::write`] with what an OpenEXR file carries besides the image: the per-pixel variance
     /// as the channels `variance.R`, `variance.G`, `variance.B`, and attributes of the render
-    /// (sample count, seed, time, estimated error). PNG and PFM files hold the image alone.
+    /// (sample count, seed, time, estimated error), and the image's place in a larger one
+    /// ([`Window`]). PNG and PFM files hold the image alone.
     ///
     /// ```
     /// use raylume_integrator::{Extras, Film, MetaValue};
@@ -253,6 +267,7 @@ impl Film {
     /// let extras = Extras {
     ///     variance: Some(&variance),
     ///     attributes: vec![("raylume.spp".into(), MetaValue::Number(16.0))],
+    ///     ..Extras::default()
     /// };
     /// film.write_with(&path, &extras).unwrap();
     /// assert_eq!(Film::read(&path).unwrap(), film);
@@ -268,6 +283,13 @@ impl Film {
         }
         if let Some(v) = extras.variance {
             assert_eq!((v.width, v.height), (self.width, self.height), "the variance is of another size");
+        }
+        if let Some(w) = extras.window {
+            let fits = |o: u32, n: u32, full: u32| o as u64 + n as u64 <= full as u64 && full <= i32::MAX as u32;
+            assert!(
+                fits(w.origin.0, self.width, w.full.0) && fits(w.origin.1, self.height, w.full.1),
+                "the window does not hold the image"
+            );
         }
         let io = |source| OutputError::Io { path: path.to_owned(), source };
         write_atomically(path, |tmp| self.encode_exr(tmp, extras).map_err(io), io)
@@ -296,8 +318,14 @@ impl Film {
             attributes.other.insert(text(key), value);
         }
         let size = (self.width as usize, self.height as usize);
+        let (origin, full) = match extras.window {
+            Some(w) => (w.origin, w.full),
+            None => ((0, 0), (self.width, self.height)),
+        };
+        attributes.layer_position = Vec2(origin.0 as i32, origin.1 as i32);
+        let display = IntegerBounds::new((0, 0), (full.0 as usize, full.1 as usize));
         let layer = Layer::new(size, attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(channels.into()));
-        Image::from_layer(layer).write().to_file(tmp).map_err(|e| match e {
+        Image::new(ImageAttributes::new(display), layer).write().to_file(tmp).map_err(|e| match e {
             exr::error::Error::Io(e) => e,
             other => std::io::Error::other(other.to_string()),
         })
@@ -444,4 +472,26 @@ fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
         pixels[(h_ - 1 - row) * w_ + col] = Vec3::new(read(&c[0..4]), read(&c[4..8]), read(&c[8..12]));
     }
     Ok(Film::from_pixels(w, h, pixels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_is_written_as_the_data_and_display_windows() {
+        let path = std::env::temp_dir().join(format!("raylume-window-{}.exr", std::process::id()));
+        let film = Film::from_pixels(3, 2, (0..6).map(|i| Vec3::splat(i as f32 * 0.25)).collect());
+        let extras = Extras { window: Some(Window { origin: (4, 5), full: (10, 9) }), ..Extras::default() };
+        film.write_with(&path, &extras).unwrap();
+        let image = exr::prelude::read_first_flat_layer_from_file(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let display = image.attributes.display_window;
+        assert_eq!((display.position, display.size), (exr::math::Vec2(0, 0), exr::math::Vec2(10, 9)));
+        assert_eq!(image.layer_data.attributes.layer_position, exr::math::Vec2(4, 5));
+        assert_eq!(image.layer_data.size, exr::math::Vec2(3, 2));
+        let red = image.layer_data.channel_data.list.iter().find(|c| c.name == *"R");
+        let red: Vec<f32> = red.unwrap().sample_data.values_as_f32().collect();
+        assert_eq!(red, [0.0, 0.25, 0.5, 0.75, 1.0, 1.25]);
+    }
 }

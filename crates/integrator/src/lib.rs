@@ -39,7 +39,7 @@ mod whitted;
 pub use background::{Background, Cubemap, CubemapFace};
 pub use estimate::{Accumulator, Estimate, REL_MSE_EPS};
 pub use film::{
-    Extras, Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, MetaValue, OutputError, remove_partial_outputs,
+    Extras, Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, MetaValue, OutputError, Window, remove_partial_outputs,
     write_atomically,
 };
 pub use profile::Profile;

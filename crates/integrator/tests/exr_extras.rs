@@ -15,6 +15,7 @@ fn variance_channels_and_attributes_reach_the_file() {
             ("raylume.estimated_rmse".into(), MetaValue::Number(0.0125)),
             ("raylume.seed".into(), MetaValue::Text("42".into())),
         ],
+        ..Extras::default()
     };
     film.write_with(&path, &extras).unwrap();
 

@@ -1,0 +1,216 @@
+//! Render farms from the command line: `render --tile` parts merged by `raylume merge` equal the
+//! one-machine render byte for byte, and bad tiles and bad parts are refused with clear errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn raylume() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_raylume"));
+    c.env_remove("RAYLUME_TEST_TILE");
+    c
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("raylume-farm-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The flags of every render here: the default scene, small, 4 samples per pixel in 4 passes.
+const FLAGS: [&str; 8] = ["--width", "40", "--height", "25", "--spp", "4", "--quiet", "--threads"];
+
+fn render(extra: &[&str], out: &Path) -> Output {
+    raylume().arg("render").args(FLAGS).arg("2").args(extra).arg("-o").arg(out).output().unwrap()
+}
+
+fn merge(out: &Path, parts: &[PathBuf]) -> Output {
+    raylume().arg("merge").arg(out).args(parts).output().unwrap()
+}
+
+fn ok(run: &Output) {
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+}
+
+/// Exit code 2, one line of error that contains `needle`.
+fn refused(run: &Output, needle: &str) -> String {
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert_eq!(run.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(needle), "expected '{needle}' in: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    stderr
+}
+
+/// Parts `0/n` .. `n-1/n` of the flags `extra`, in `dir`.
+fn parts(dir: &Path, n: u32, extra: &[&str], prefix: &str) -> Vec<PathBuf> {
+    (0..n)
+        .map(|i| {
+            let out = dir.join(format!("{prefix}-{i}.exr"));
+            let tile = format!("{i}/{n}");
+            let mut args = vec!["--tile", tile.as_str()];
+            args.extend_from_slice(extra);
+            ok(&render(&args, &out));
+            out
+        })
+        .collect()
+}
+
+#[test]
+fn merged_regions_equal_the_one_machine_render_byte_for_byte() {
+    let dir = temp_dir("exact");
+    let full = dir.join("full.pfm");
+    ok(&render(&[], &full));
+    let full_exr = dir.join("full.exr");
+    ok(&render(&[], &full_exr));
+    // 25 rows in 3 and 7 regions: bands of unequal height; also in 25 regions of one row.
+    for n in [3u32, 7, 25] {
+        let mut parts = parts(&dir, n, &[], &format!("n{n}"));
+        parts.reverse();
+        let merged = dir.join(format!("merged-{n}.pfm"));
+        ok(&merge(&merged, &parts));
+        assert_eq!(std::fs::read(&merged).unwrap(), std::fs::read(&full).unwrap(), "{n} regions");
+    }
+    // A merged EXR has the pixels and the variance of the one-machine EXR.
+    let parts = parts(&dir, 2, &[], "exr");
+    let merged = dir.join("merged.exr");
+    ok(&merge(&merged, &parts));
+    let channels = |p: &Path| {
+        let image = exr::prelude::read_first_flat_layer_from_file(p).unwrap();
+        let mut list: Vec<(String, Vec<f32>)> = image
+            .layer_data
+            .channel_data
+            .list
+            .iter()
+            .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+            .collect();
+        list.sort_by(|a, b| a.0.cmp(&b.0));
+        list
+    };
+    let (a, b) = (channels(&merged), channels(&full_exr));
+    let names: Vec<&str> = a.iter().map(|c| c.0.as_str()).collect();
+    assert_eq!(names, ["B", "G", "R", "variance.B", "variance.G", "variance.R"]);
+    assert_eq!(a, b);
+}
+
+#[test]
+fn a_part_carries_its_data_window_and_the_render_identity() {
+    let dir = temp_dir("part");
+    let out = dir.join("part.exr");
+    // The index from an environment variable: region 1 of 3 of 25 rows is rows 8..16.
+    let run = raylume()
+        .arg("render")
+        .args(FLAGS)
+        .arg("2")
+        .args(["--tile-from-env", "RAYLUME_TEST_TILE", "--tiles", "3", "-o"])
+        .arg(&out)
+        .env("RAYLUME_TEST_TILE", "1")
+        .output()
+        .unwrap();
+    ok(&run);
+    let image = exr::prelude::read_first_flat_layer_from_file(&out).unwrap();
+    let layer = &image.layer_data;
+    assert_eq!(image.attributes.display_window.size, exr::math::Vec2(40, 25));
+    assert_eq!(layer.attributes.layer_position, exr::math::Vec2(0, 8));
+    assert_eq!(layer.size, exr::math::Vec2(40, 8));
+    let get = |k: &str| layer.attributes.other.get(&exr::prelude::Text::from(k)).cloned();
+    let text = |k: &str| match get(k) {
+        Some(exr::meta::attribute::AttributeValue::Text(t)) => t.to_string(),
+        other => panic!("{k}: {other:?}"),
+    };
+    assert_eq!(text("raylume.region"), "0 8 40 16");
+    assert_eq!(text("raylume.tile"), "1/3");
+    assert_eq!(text("raylume.seed"), "0");
+    assert_eq!(text("raylume.scene_hash").len(), 16);
+    for k in ["raylume.full_width", "raylume.full_height", "raylume.spp", "raylume.passes", "raylume.seconds"] {
+        assert!(matches!(get(k), Some(exr::meta::attribute::AttributeValue::F64(_))), "{k}");
+    }
+    // The same region from --tile has the same pixels.
+    let direct = dir.join("direct.exr");
+    ok(&render(&["--tile", "1/3"], &direct));
+    let again = exr::prelude::read_first_flat_layer_from_file(&direct).unwrap();
+    assert_eq!(again.layer_data.channel_data, layer.channel_data);
+}
+
+#[test]
+fn bad_tiles_exit_2_before_rendering() {
+    let dir = temp_dir("tiles");
+    let out = dir.join("part.exr");
+    let cases: [(&[&str], &str); 6] = [
+        (&["--tile", "3/3"], "--tile 3/3: region 3 of 3: expected I from 0 to 2"),
+        (&["--tile", "0/0"], "N = 0"),
+        (&["--tile", "two/3"], "--tile two/3: expected I/N"),
+        (&["--tile", "0/26"], "26 regions of an image of 25 rows"),
+        (&["--tile-from-env", "RAYLUME_TEST_TILE", "--tiles", "3"], "RAYLUME_TEST_TILE: the variable is not set"),
+        (&["--tile", "0/2", "--crop", "0", "0", "4", "4"], "cannot be used with"),
+    ];
+    for (args, message) in cases {
+        let run = render(args, &out);
+        if message == "cannot be used with" {
+            assert_eq!(run.status.code(), Some(2));
+            assert!(String::from_utf8_lossy(&run.stderr).contains(message));
+        } else {
+            refused(&run, message);
+        }
+        assert!(!out.exists(), "{args:?}");
+    }
+    let bad_env = raylume()
+        .arg("render")
+        .args(["--tile-from-env", "RAYLUME_TEST_TILE", "--tiles", "3", "-o"])
+        .arg(&out)
+        .env("RAYLUME_TEST_TILE", "x1")
+        .output()
+        .unwrap();
+    refused(&bad_env, "--tile-from-env RAYLUME_TEST_TILE: the value 'x1' is not a region index");
+    let png = dir.join("part.png");
+    refused(&render(&["--tile", "0/2"], &png), "part.png: a region is written as OpenEXR");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+#[test]
+fn merge_refuses_bad_parts_naming_the_file() {
+    let dir = temp_dir("refuse");
+    let good = parts(&dir, 3, &[], "good");
+    let out = dir.join("merged.pfm");
+    let with = |i: usize, part: &Path| {
+        let mut p = good.clone();
+        p[i] = part.to_owned();
+        p
+    };
+    let name = |p: &Path| p.display().to_string();
+
+    // Another seed, other settings (depth), another scene size.
+    let seed = parts(&dir, 3, &["--seed", "7"], "seed");
+    refused(
+        &merge(&out, &with(1, &seed[1])),
+        &format!("{}: seed 7, but {} has seed 0", name(&seed[1]), name(&good[0])),
+    );
+    let depth = parts(&dir, 3, &["--depth", "2"], "depth");
+    let run = merge(&out, &with(2, &depth[2]));
+    refused(&run, &format!("{}: scene hash", name(&depth[2])));
+    refused(&run, "parts of different scenes or settings");
+
+    // Overlapping and missing regions.
+    let half = parts(&dir, 2, &[], "half");
+    refused(&merge(&out, &[good[0].clone(), half[1].clone(), good[1].clone()]), "overlaps");
+    refused(&merge(&out, &[good[0].clone(), good[0].clone(), good[1].clone(), good[2].clone()]), "overlaps");
+    refused(&merge(&out, &[good[0].clone(), good[2].clone()]), "do not cover rows 8-15 of the image's 25");
+
+    // Truncated, not EXR, an EXR that is not a part, a missing file.
+    let bytes = std::fs::read(&good[1]).unwrap();
+    for keep in [bytes.len() - 1, bytes.len() / 2, 400, 10] {
+        let cut = dir.join(format!("cut-{keep}.exr"));
+        std::fs::write(&cut, &bytes[..keep]).unwrap();
+        refused(&merge(&out, &with(1, &cut)), &name(&cut));
+    }
+    let pfm = dir.join("full.pfm");
+    ok(&render(&[], &pfm));
+    refused(&merge(&out, &with(0, &pfm)), &format!("{}: not an OpenEXR file", name(&pfm)));
+    let plain = dir.join("plain.exr");
+    ok(&render(&[], &plain));
+    refused(&merge(&out, &with(0, &plain)), &format!("{}: no raylume.scene_hash attribute", name(&plain)));
+    let absent = dir.join("absent.exr");
+    refused(&merge(&out, &with(0, &absent)), &name(&absent));
+    assert!(!out.exists(), "no output from a refused merge");
+    ok(&merge(&out, &good));
+    assert!(out.exists());
+}
