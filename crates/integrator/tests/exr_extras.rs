@@ -24,7 +24,8 @@ fn variance_channels_and_attributes_reach_the_file() {
     let image = image.from_file(&path).unwrap();
     let layer = &image.layer_data[0];
     let channel = |name: &str| {
-        let c = layer.channel_data.list.iter().find(|c| c.name == Text::from(name)).unwrap();
+        let key = Text::from(name);
+        let c = layer.channel_data.list.iter().find(|c| c.name == key).unwrap();
         c.sample_data.values_as_f32().collect::<Vec<f32>>()
     };
     assert_eq!(channel("R"), [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
