@@ -47,9 +47,10 @@ pub struct ConvergeArgs {
 }
 
 pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
+    let options = p3f::LoadOptions { ignore_env: args.no_env, ..Default::default() };
     let loaded = match &args.scene {
-        Some(path) => p3f::load(path, &p3f::LoadOptions::default()),
-        None => p3f::parse(DEFAULT_SCENE, "<default scene>", &p3f::LoadOptions::default()),
+        Some(path) => p3f::load(path, &options),
+        None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options),
     }
     .map_err(crate::load_failure)?;
     for w in &loaded.warnings {

@@ -459,7 +459,12 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     // Everything the flags alone decide is checked before the scene is read.
     let mut render_options = render_options(&args)?;
     check_output(&args.output, true)?;
-    let options = p3f::LoadOptions { strict: args.strict, env_dirs: args.env_dir.clone(), ..Default::default() };
+    let options = p3f::LoadOptions {
+        strict: args.strict,
+        env_dirs: args.env_dir.clone(),
+        ignore_env: args.no_env,
+        ..Default::default()
+    };
     let (scene, warnings, summary) = match (&args.scene, &args.mesh) {
         (_, Some(mesh)) => {
             let shape = raylume_scene::obj::load(mesh).map_err(bad_input)?;

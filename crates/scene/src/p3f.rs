@@ -47,6 +47,9 @@ pub struct LoadOptions {
     /// Further folders to look for the scene's `env` cubemap in, after the base folder and its
     /// parent.
     pub env_dirs: Vec<PathBuf>,
+    /// The cubemap will not be used (a render with `--no-env`): its folder is not looked for, so a
+    /// missing one is neither a warning nor, under `strict`, an error.
+    pub ignore_env: bool,
 }
 
 /// The variant of the format a file was written in.

@@ -273,3 +273,15 @@ fn built_scene_round_trips_through_text() {
     assert_eq!(again, scene);
     assert!(raylume_scene::SceneBuilder::new().sphere(Vec3A::ZERO, 1.0).build().is_err());
 }
+
+#[test]
+fn a_missing_cubemap_is_not_looked_for_when_it_will_not_be_used() {
+    let text = "env no_such_sky\nv from 0 0 5 at 0 0 0 up 0 1 0 angle 40 hither 0 resolution 8 6\n";
+    let warned = parse(text, "sky.p3f", &LoadOptions::default()).unwrap();
+    assert_eq!(warned.warnings.len(), 1, "{:?}", warned.warnings);
+    assert!(parse(text, "sky.p3f", &LoadOptions { strict: true, ..Default::default() }).is_err());
+    let ignored = LoadOptions { strict: true, ignore_env: true, ..Default::default() };
+    let loaded = parse(text, "sky.p3f", &ignored).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    assert_eq!(loaded.scene.env.as_deref(), Some("no_such_sky"), "the scene still names it");
+}

@@ -345,7 +345,7 @@ impl<'a, 'f> Parser<'a, 'f> {
             return Err(e.with_earlier_warnings(self.warnings));
         };
         let env = parts.env;
-        if let Some((name, tag)) = &env {
+        if let Some((name, tag)) = env.as_ref().filter(|_| !self.options.ignore_env) {
             let dirs = env_search_dirs(self.options.base_dir.as_deref(), &self.options.env_dirs);
             if let Err(why) = crate::cubemap::find_cubemap(name, &dirs) {
                 let message = format!("environment map: {why}; escaping rays show the background colour");
