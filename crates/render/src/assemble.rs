@@ -257,6 +257,12 @@ impl Steps for Scene {
         let prepared = self.prepared(options)?;
         let mut features = self.features_of(&prepared);
         let plan = Plan::new(options, prepared.settings.spp);
+        if plan.end_pass > plan.passes && !plan.adaptive && !plan.budget() {
+            return Err(SceneError::Invalid(format!(
+                "passes {}..{}: the render has {} passes of {} samples",
+                plan.first_pass, plan.end_pass, plan.passes, plan.pass_spp
+            )));
+        }
         // Passes are independent only if each draws its own samples over the pixel's area.
         features.antialiasing |= plan.passes > 1 || plan.budget();
         let mut warnings = Vec::new();
@@ -377,6 +383,9 @@ struct Plan {
     /// Passes of a render without a budget (with adaptive sampling: the samples of this many
     /// passes over the whole image).
     passes: u32,
+    /// The passes rendered, `first_pass..end_pass` ([`RenderOptions::pass_range`]).
+    first_pass: u32,
+    end_pass: u32,
     time_limit: Option<f64>,
     noise_threshold: Option<f64>,
     adaptive: bool,
@@ -401,7 +410,16 @@ impl Plan {
                 .min_by_key(|&k| (k as u64 * drawn(spp.div_ceil(k)) as u64, std::cmp::Reverse(k)))
                 .unwrap_or(1)
         };
-        Self { pass_spp: spp.div_ceil(passes).max(1), passes, time_limit, noise_threshold, adaptive: options.adaptive }
+        let (first_pass, end_pass) = options.pass_range.unwrap_or((0, passes));
+        Self {
+            pass_spp: spp.div_ceil(passes).max(1),
+            passes,
+            first_pass,
+            end_pass,
+            time_limit,
+            noise_threshold,
+            adaptive: options.adaptive,
+        }
     }
 
     fn budget(&self) -> bool {
@@ -462,6 +480,8 @@ pub struct Progress<'a> {
     pub estimate: Option<Estimate>,
     /// The per-pixel statistics of the passes so far: the per-pixel variance, pass counts.
     pub accumulator: &'a Accumulator,
+    /// The image of the pass just finished alone (black where an adaptive pass left pixels out).
+    pub pass_film: &'a Film,
 }
 
 /// After each pass: `Continue` lets the render go on (as its plan and budgets say), `Break` stops it.
@@ -531,7 +551,7 @@ impl Job<'_> {
         let mut stats = RayStats::default();
         let mut active: Option<Vec<bool>> = None;
         let (mut pixel_passes, mut samples_per_pass) = (0u64, 0u64);
-        for pass in 0usize.. {
+        for pass in plan.first_pass as usize.. {
             // Pass 0 keeps the seed, so a one-pass render is the plain render.
             let seed = if pass == 0 {
                 self.settings.seed
@@ -564,6 +584,7 @@ impl Job<'_> {
                 pixels_rendered: rendered,
                 estimate,
                 accumulator: &accumulator,
+                pass_film: &film,
             };
             if on_pass(&progress).is_break() || (most + 1) * samples_per_pass > limits::MAX_SPP as u64 {
                 break;
@@ -582,8 +603,15 @@ impl Job<'_> {
                 if self.started.elapsed().as_secs_f64() + expected > limit {
                     break;
                 }
-            } else if !plan.budget() && pixel_passes >= plan.passes as u64 * pixels as u64 {
-                break;
+            } else if !plan.budget() {
+                let done = if plan.adaptive {
+                    pixel_passes >= plan.passes as u64 * pixels as u64
+                } else {
+                    pass + 1 >= plan.end_pass as usize
+                };
+                if done {
+                    break;
+                }
             }
             active = next;
         }

@@ -71,6 +71,10 @@ pub struct RenderOptions {
     /// neighbours ([`Accumulator::noisy_pixels`](raylume_integrator::Accumulator::noisy_pixels)).
     /// Without a budget the render takes as many samples as the uniform render would, in all.
     pub adaptive: bool,
+    /// Render only the passes `first..end` of the render's passes ([`RenderOptions::passes`], with
+    /// the same seeds): a share of the samples for a render farm, whose pass images put together in
+    /// order are the whole render's. Without a budget or adaptive sampling only.
+    pub pass_range: Option<(u32, u32)>,
 }
 
 /// Passes over every pixel before adaptive sampling chooses pixels.
@@ -134,6 +138,15 @@ impl RenderOptions {
         if let Some(t) = self.time_limit.filter(|t| t.is_nan() || *t <= 0.0) {
             return invalid(format!("time limit {t}: expected seconds > 0"));
         }
+        if let Some((first, end)) = self.pass_range {
+            let budget = self.time_limit.is_some() || self.noise_threshold.is_some() || self.adaptive;
+            if first >= end || end > self.passes || budget {
+                return invalid(format!(
+                    "passes {first}..{end}: expected a range within 0..{} and no budget or adaptive sampling",
+                    self.passes
+                ));
+            }
+        }
         if let Some(e) = self.noise_threshold.filter(|e| !e.is_finite() || *e <= 0.0) {
             return invalid(format!("noise threshold {e}: expected an RMSE > 0"));
         }
@@ -167,6 +180,7 @@ impl Default for RenderOptions {
             time_limit: None,
             noise_threshold: None,
             adaptive: false,
+            pass_range: None,
         }
     }
 }

@@ -227,3 +227,41 @@ fn obj_files_keep_their_normals_and_load_into_place() {
     let missing = obj::parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nvn 0 0 0\n", "n.obj");
     assert!(missing.is_ok());
 }
+
+/// A render's passes can be rendered apart (`pass_range`, as machines of a farm would) and put
+/// together in order: the same image and variance, bit for bit.
+#[test]
+fn passes_rendered_apart_and_put_together_in_order_are_the_whole_render() {
+    let scene = default_scene();
+    let options = RenderOptions { spp: Some(16), passes: 4, resolution: Some((24, 15)), ..RenderOptions::default() };
+    let passes_of = |options: &RenderOptions| {
+        let mut films = Vec::new();
+        let out = scene
+            .render_progressive(options, &(), |p| {
+                films.push(p.pass_film.clone());
+                ControlFlow::Continue(())
+            })
+            .unwrap();
+        (out, films)
+    };
+    let (whole, whole_passes) = passes_of(&options);
+    assert_eq!(whole_passes.len(), 4);
+    let mut apart = Vec::new();
+    for range in [(0, 1), (1, 3), (3, 4)] {
+        let (out, films) = passes_of(&RenderOptions { pass_range: Some(range), ..options.clone() });
+        assert_eq!((out.passes, out.samples_per_pixel), (range.1 - range.0, 4 * (range.1 - range.0) as u64));
+        apart.extend(films);
+    }
+    assert_eq!(apart, whole_passes, "each pass is the same wherever it is rendered");
+    let mut together = raylume_render::Accumulator::new(24, 15);
+    for film in &apart {
+        together.add_pass(film, None);
+    }
+    assert_eq!(together.film(), whole.film);
+    assert_eq!(together.variance_film(), whole.variance);
+    let refused = scene.render(&RenderOptions { pass_range: Some((2, 5)), ..options.clone() }, &()).unwrap_err();
+    assert_eq!(refused.to_string(), "passes 2..5: expected a range within 0..4 and no budget or adaptive sampling");
+    // 8 samples are 2 passes of 2 x 2: their range is within 0..2.
+    let eight = RenderOptions { spp: Some(8), pass_range: Some((1, 3)), ..options.clone() };
+    assert_eq!(scene.render(&eight, &()).unwrap_err().to_string(), "passes 1..3: the render has 2 passes of 4 samples");
+}
