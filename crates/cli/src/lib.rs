@@ -437,6 +437,7 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
         time_limit: args.time_limit,
         noise_threshold: args.noise_threshold,
         adaptive: args.adaptive,
+        pass_range: None,
     };
     options.validate().map_err(bad_input)?;
     Ok(options)
