@@ -159,6 +159,7 @@ pub(crate) fn scene_hash(scene: &[u8], options: &RenderOptions, full: (u32, u32)
     o.strict = false;
     o.time_limit = None;
     o.noise_threshold = None;
+    o.pass_range = None;
     o.spp = None;
     o.resolution = Some(full);
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -171,6 +172,237 @@ pub(crate) fn scene_hash(scene: &[u8], options: &RenderOptions, full: (u32, u32)
     feed(scene);
     feed(format!("\n{o:?}").as_bytes());
     format!("{h:016x}")
+}
+
+/// [`scene_hash`] of the scene read from `scene` (`None`: `fallback`, the embedded default scene).
+pub(crate) fn scene_hash_of(
+    scene: Option<&Path>,
+    fallback: &str,
+    options: &RenderOptions,
+    full: (u32, u32),
+) -> Result<String, Failure> {
+    let bytes = match scene {
+        Some(path) => std::fs::read(path).map_err(|e| bad_input(format!("{}: {e}", path.display())))?,
+        None => fallback.as_bytes().to_vec(),
+    };
+    Ok(scene_hash(&bytes, options, full))
+}
+
+const FIRST_PASS: &str = "raylume.first_pass";
+const TOTAL_PASSES: &str = "raylume.total_passes";
+const SAMPLES_PER_PASS: &str = "raylume.samples_per_pass";
+
+/// A share of each pixel's samples for one machine of a farm (`render --samples A..B`): whole passes
+/// of the render, written with their images so that `merge` adds them in order, as one machine does.
+pub(crate) struct SampleShare {
+    first: u32,
+    end: u32,
+    total: u32,
+    per_pass: u32,
+}
+
+impl SampleShare {
+    /// The share `spec` (`A..B`, samples from A to B) of a render split as `split`, written to `output`.
+    pub(crate) fn new(spec: &str, split: raylume_render::PassSplit, output: &Path) -> Result<Self, Failure> {
+        let flag = format!("--samples {spec}");
+        if ImageFormat::from_path(output).ok() != Some(ImageFormat::Exr) {
+            return Err(bad_input(format!(
+                "{flag}: a share of the samples is written as .exr, not {}",
+                output.display()
+            )));
+        }
+        let (Some(total), m) = (split.passes, split.samples_per_pass) else {
+            return Err(bad_input(format!("{flag}: a budget or adaptive sampling has no fixed passes to share")));
+        };
+        let parsed = spec
+            .split_once("..")
+            .and_then(|(a, b)| Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?)));
+        let Some((a, b)) = parsed else {
+            return Err(bad_input(format!("{flag}: expected A..B, sample indices such as 0..8")));
+        };
+        let all = total * m;
+        if a >= b || b > all || a % m != 0 || b % m != 0 {
+            return Err(bad_input(format!(
+                "{flag}: expected A < B <= {all}, both multiples of {m} (the render is {total} passes of {m} samples)"
+            )));
+        }
+        Ok(Self { first: a / m, end: b / m, total, per_pass: m })
+    }
+
+    /// The render's passes this share holds.
+    pub(crate) fn pass_range(&self) -> (u32, u32) {
+        (self.first, self.end)
+    }
+
+    /// The name of the layer of the share's `k`-th pass.
+    pub(crate) fn layer_name(&self, k: usize) -> String {
+        format!("pass{}", self.first as usize + k)
+    }
+
+    /// Adds the share's identity to an EXR's attributes.
+    pub(crate) fn add_to(&self, extras: &mut Extras, hash: &str, full: (u32, u32)) {
+        let number = |k: &str, v: f64| (k.to_owned(), MetaValue::Number(v));
+        extras.attributes.push((SCENE_HASH.to_owned(), MetaValue::Text(hash.to_owned())));
+        extras.attributes.push(number(FIRST_PASS, self.first as f64));
+        extras.attributes.push(number(TOTAL_PASSES, self.total as f64));
+        extras.attributes.push(number(SAMPLES_PER_PASS, self.per_pass as f64));
+        extras.attributes.push(number("raylume.full_width", full.0 as f64));
+        extras.attributes.push(number("raylume.full_height", full.1 as f64));
+        let samples = format!("{}..{}", self.first * self.per_pass, self.end * self.per_pass);
+        extras.attributes.push(("raylume.samples".to_owned(), MetaValue::Text(samples)));
+    }
+}
+
+/// A share of the samples read back.
+struct SharePart {
+    path: PathBuf,
+    hash: String,
+    seed: String,
+    first: u32,
+    total: u32,
+    per_pass: u32,
+    size: (u32, u32),
+    seconds: f64,
+    passes: Vec<Film>,
+}
+
+/// Whether `path` is a share of the samples (has the attribute `render --samples` writes).
+fn is_share(path: &Path) -> bool {
+    let Ok(bytes) = std::fs::read(path) else { return false };
+    let Ok(meta) = exr::meta::MetaData::read_from_buffered(bytes.as_slice(), false) else { return false };
+    meta.headers.iter().any(|h| h.own_attributes.other.contains_key(&exr::prelude::Text::from(FIRST_PASS)))
+}
+
+fn read_share(path: &Path) -> Result<SharePart, Failure> {
+    use exr::prelude::*;
+    let fail = |m: String| bad_input(format!("{}: {m}", path.display()));
+    let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+    if meta.len() > MAX_IMAGE_PIXELS * 12 * 64 {
+        return Err(fail(format!("{} bytes is more than a share of the samples can be", meta.len())));
+    }
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .pedantic()
+        .non_parallel()
+        .from_file(path)
+        .map_err(|e| fail(format!("unreadable OpenEXR part (truncated or damaged?): {e}")))?;
+    let layer = &image.layer_data;
+    let attribute = |name: &str| layer.attributes.other.get(&Text::from(name));
+    let number = |name: &str| match attribute(name) {
+        Some(AttributeValue::F64(x)) if *x >= 0.0 && *x <= u32::MAX as f64 => Ok(*x),
+        _ => Err(fail(format!("no {name} attribute: not a share written by raylume render --samples"))),
+    };
+    let text = |name: &str| match attribute(name) {
+        Some(AttributeValue::Text(t)) => Ok(t.to_string()),
+        _ => Err(fail(format!("no {name} attribute: not a share written by raylume render --samples"))),
+    };
+    let (w, h) = (layer.size.0 as u32, layer.size.1 as u32);
+    let n = w as usize * h as usize;
+    let channel = |name: &str| -> Option<Vec<f32>> {
+        let key = Text::from(name);
+        let c = layer.channel_data.list.iter().find(|c| c.name == key)?;
+        let v: Vec<f32> = c.sample_data.values_as_f32().collect();
+        (v.len() == n).then_some(v)
+    };
+    let (first, total) = (number(FIRST_PASS)? as u32, number(TOTAL_PASSES)? as u32);
+    let mut passes = Vec::new();
+    for k in first..total {
+        let names = ["R", "G", "B"].map(|c| format!("pass{k}.{c}"));
+        let [Some(r), Some(g), Some(b)] = names.map(|n| channel(&n)) else { break };
+        let pixels = r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)).collect();
+        passes.push(Film::from_pixels(w, h, pixels));
+    }
+    if passes.is_empty() {
+        return Err(fail(format!("no pass{first}.R, .G, .B channels: a share holds its passes' images")));
+    }
+    Ok(SharePart {
+        path: path.to_owned(),
+        hash: text(SCENE_HASH)?,
+        seed: text("raylume.seed")?,
+        first,
+        total,
+        per_pass: number(SAMPLES_PER_PASS)? as u32,
+        size: (w, h),
+        seconds: number("raylume.seconds")?,
+        passes,
+    })
+}
+
+/// Adds shares of the samples in the order of their passes, as one machine adds its passes, and
+/// writes the image: the one-machine render's, bit for bit.
+fn merge_shares(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
+    let mut parts = paths.iter().map(|p| read_share(p)).collect::<Result<Vec<_>, _>>()?;
+    parts.sort_by_key(|p| p.first);
+    let first = &parts[0];
+    for p in &parts[1..] {
+        let same = p.hash == first.hash
+            && p.seed == first.seed
+            && p.total == first.total
+            && p.per_pass == first.per_pass
+            && p.size == first.size;
+        if !same {
+            return Err(bad_input(format!(
+                "{}: a share of another render than {} (scene hash, seed, passes or size differ)",
+                p.path.display(),
+                first.path.display()
+            )));
+        }
+    }
+    let mut next = 0;
+    for p in &parts {
+        let range = |a: u32, b: u32| format!("{}..{}", a * p.per_pass, b * p.per_pass);
+        if p.first > next {
+            return Err(bad_input(format!(
+                "the shares do not hold samples {} (a part is missing)",
+                range(next, p.first)
+            )));
+        }
+        if p.first < next {
+            return Err(bad_input(format!(
+                "{} overlaps another share: both hold samples {}",
+                p.path.display(),
+                range(p.first, next)
+            )));
+        }
+        next = p.first + p.passes.len() as u32;
+    }
+    if next != first.total {
+        let m = first.per_pass;
+        return Err(bad_input(format!(
+            "the shares do not hold samples {}..{} (a part is missing)",
+            next * m,
+            first.total * m
+        )));
+    }
+    let (w, h) = first.size;
+    let mut accumulator = raylume_integrator::Accumulator::new(w, h);
+    for film in parts.iter().flat_map(|p| &p.passes) {
+        accumulator.add_pass(film, None);
+    }
+    let film = accumulator.film();
+    let variance = accumulator.variance_film();
+    let seconds: f64 = parts.iter().map(|p| p.seconds).sum();
+    let attributes = vec![
+        (SCENE_HASH.to_owned(), MetaValue::Text(first.hash.clone())),
+        ("raylume.seed".to_owned(), MetaValue::Text(first.seed.clone())),
+        ("raylume.spp".to_owned(), MetaValue::Number((first.total * first.per_pass) as f64)),
+        ("raylume.passes".to_owned(), MetaValue::Number(first.total as f64)),
+        ("raylume.seconds".to_owned(), MetaValue::Number(seconds)),
+        ("raylume.parts".to_owned(), MetaValue::Number(parts.len() as f64)),
+    ];
+    let extras = Extras { variance: variance.as_ref(), attributes, ..Extras::default() };
+    film.write_with(output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    eprintln!(
+        "raylume: merged {} shares of the samples into {} ({w}x{h}, {} passes, {seconds:.3} s of rendering in all)",
+        parts.len(),
+        output.display(),
+        first.total
+    );
+    Ok(())
 }
 
 /// A part read back: its place, its identity and its pixels.
@@ -326,6 +558,9 @@ fn ranges(rows: &[u32]) -> String {
 /// an EXR output keeps the variance channels when every part has them).
 pub(crate) fn merge(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
     crate::check_output(output, true)?;
+    if !paths.is_empty() && paths.iter().all(|p| is_share(p)) {
+        return merge_shares(output, paths);
+    }
     let parts = paths.iter().map(|p| read_part(p)).collect::<Result<Vec<_>, _>>()?;
     let Some(first) = parts.first() else {
         return Err(bad_input("merge: give the parts to assemble"));
@@ -412,7 +647,7 @@ pub(crate) fn merge(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
         ("raylume.seconds".to_owned(), MetaValue::Number(seconds)),
         ("raylume.parts".to_owned(), MetaValue::Number(parts.len() as f64)),
     ];
-    let extras = Extras { variance: variance.as_ref(), attributes, window: None };
+    let extras = Extras { variance: variance.as_ref(), attributes, ..Extras::default() };
     film.write_with(output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     eprintln!(
         "raylume: merged {} parts into {} ({w}x{h}, {} s of rendering in all)",

@@ -161,6 +161,10 @@ struct RenderArgs {
     /// The number of regions N of --tile-from-env.
     #[arg(long, value_name = "N", requires = "tile_from_env")]
     tiles: Option<u32>,
+    /// Render only samples A..B of each pixel's (whole passes: A and B multiples of a pass's
+    /// samples), as an .exr part with its pass images, for `raylume merge` (docs/FARM.md).
+    #[arg(long, value_name = "A..B", conflicts_with_all = ["tile", "tile_from_env"])]
+    samples: Option<String>,
     /// Print only warnings and errors: no progress bar, no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -171,15 +175,15 @@ struct RenderArgs {
     passes: Option<u32>,
     /// Render passes until this many seconds have gone (scene loading excluded; a pass that would
     /// end past the limit is not started).
-    #[arg(long, value_name = "SECONDS", group = "budget", conflicts_with_all = ["tile", "tile_from_env"])]
+    #[arg(long, value_name = "SECONDS", group = "budget", conflicts_with_all = ["tile", "tile_from_env", "samples"])]
     time_limit: Option<f64>,
     /// Render passes until the estimated RMSE of the image (linear RGB) is at most E.
-    #[arg(long, value_name = "E", group = "budget", conflicts_with_all = ["tile", "tile_from_env"])]
+    #[arg(long, value_name = "E", group = "budget", conflicts_with_all = ["tile", "tile_from_env", "samples"])]
     noise_threshold: Option<f64>,
     /// Adaptive sampling, with a budget (--time-limit or --noise-threshold): after 4 passes over
     /// every pixel, give further passes to the pixels whose estimated error is high (and their
     /// neighbours).
-    #[arg(long, requires = "budget", conflicts_with_all = ["tile", "tile_from_env"])]
+    #[arg(long, requires = "budget", conflicts_with_all = ["tile", "tile_from_env", "samples"])]
     adaptive: bool,
     /// Write the estimated error of each pass against time to DIR/error.csv and DIR/error.png.
     #[arg(long, value_name = "DIR")]
@@ -525,6 +529,16 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
             split.samples_per_pass
         );
     }
+    // A share of the samples of a farmed render is a range of its passes.
+    let share = match &args.samples {
+        Some(spec) => {
+            let share = farm::SampleShare::new(spec, split, &args.output)?;
+            render_options.pass_range = Some(share.pass_range());
+            let file = args.scene.as_deref().or(args.mesh.as_deref());
+            Some((share, farm::scene_hash_of(file, DEFAULT_SCENE, &render_options, full)?))
+        }
+        None => None,
+    };
     let features = scene.features(&render_options).map_err(bad_input)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
@@ -551,11 +565,14 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let columns = settings.crop.map_or(w, |c| c[2].min(w).saturating_sub(c[0]));
     let display = display::Display::start(&display_options(&args), columns, rows, spp, say(&bar))
         .map_err(|message| Failure { code: 1, message })?;
-    let mut report = Vec::new();
+    let (mut report, mut pass_films) = (Vec::new(), Vec::new());
     GRACEFUL.store(true, std::sync::atomic::Ordering::SeqCst);
     let rendered = pool.install(|| {
         let on_pass = |p: &raylume_render::Progress| {
             report.push(report::Row::of(p));
+            if share.is_some() {
+                pass_films.push(p.pass_film.clone());
+            }
             if known_passes.is_none() {
                 bar.set_position(0);
             }
@@ -594,10 +611,18 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         eprintln!("{w}");
     }
     let attributes = report::attributes(&out, settings.seed, spp, &render_options);
-    let mut extras = raylume_integrator::Extras { variance: out.variance.as_ref(), attributes, window: None };
+    let mut extras = raylume_integrator::Extras { variance: out.variance.as_ref(), attributes, ..Default::default() };
     if let Some(part) = &part {
         part.add_to(&mut extras);
     }
+    let names: Vec<String> = match &share {
+        Some((share, hash)) if !stopped => {
+            share.add_to(&mut extras, hash, full);
+            (0..pass_films.len()).map(|k| share.layer_name(k)).collect()
+        }
+        _ => Vec::new(),
+    };
+    extras.layers = names.iter().cloned().zip(pass_films.iter()).collect();
     out.film.write_with(&args.output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     if let Some(dir) = &args.report {
         report::write(dir, &report, &scene_title(&args))?;

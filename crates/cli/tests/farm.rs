@@ -214,3 +214,50 @@ fn merge_refuses_bad_parts_naming_the_file() {
     ok(&merge(&out, &good));
     assert!(out.exists());
 }
+
+/// Shares of the samples (`--samples A..B`, whole passes) merged in pass order equal the
+/// one-machine render byte for byte; missing, overlapping and foreign shares,
+/// and shares that are not whole passes, are refused.
+#[test]
+fn shares_of_the_samples_merge_into_the_one_machine_render() {
+    let dir = temp_dir("shares");
+    let flags = ["--spp", "16", "--width", "40", "--height", "25", "--quiet"];
+    let share = |range: &str, out: &Path, threads: &str| {
+        raylume()
+            .arg("render")
+            .args(flags)
+            .args(["--threads", threads, "--samples", range, "-o"])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let whole = dir.join("whole.exr");
+    ok(&raylume().arg("render").args(flags).arg("-o").arg(&whole).output().unwrap());
+    let (a, b, c) = (dir.join("a.exr"), dir.join("b.exr"), dir.join("c.exr"));
+    ok(&share("0..4", &a, "1"));
+    ok(&share("4..12", &b, "2"));
+    ok(&share("12..16", &c, "3"));
+    let merged = dir.join("merged.exr");
+    ok(&merge(&merged, &[c.clone(), a.clone(), b.clone()]));
+    let read = |p: &Path| raylume_integrator::Film::read(p).unwrap();
+    assert_eq!(read(&merged), read(&whole), "the image, bit for bit");
+    let (pfm_whole, pfm_merged) = (dir.join("whole.pfm"), dir.join("merged.pfm"));
+    ok(&raylume().arg("render").args(flags).arg("-o").arg(&pfm_whole).output().unwrap());
+    ok(&merge(&pfm_merged, &[a.clone(), b.clone(), c.clone()]));
+    assert_eq!(std::fs::read(&pfm_merged).unwrap(), std::fs::read(&pfm_whole).unwrap(), "byte for byte");
+
+    refused(&merge(&dir.join("x.pfm"), &[a.clone(), c.clone()]), "do not hold samples 4..12 (a part is missing)");
+    refused(&merge(&dir.join("x.pfm"), &[a.clone(), a.clone(), b.clone(), c.clone()]), "overlaps another share");
+    let other = dir.join("other.exr");
+    ok(&raylume()
+        .arg("render")
+        .args(flags)
+        .args(["--seed", "7", "--samples", "4..12", "-o"])
+        .arg(&other)
+        .output()
+        .unwrap());
+    refused(&merge(&dir.join("x.pfm"), &[a.clone(), other, c.clone()]), "a share of another render");
+    refused(&share("0..6", &dir.join("y.exr"), "1"), "both multiples of 4 (the render is 4 passes of 4 samples)");
+    refused(&share("0..4", &dir.join("y.png"), "1"), "is written as .exr");
+    assert!(!dir.join("x.pfm").exists() && !dir.join("y.exr").exists());
+}

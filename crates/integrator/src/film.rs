@@ -75,6 +75,9 @@ pub struct Extras<'a> {
     /// Where the image lies in a larger one: it is written as the data window, and the larger
     /// image as the display window (without it, both are the image itself).
     pub window: Option<Window>,
+    /// Further images of the same size, each written as the channels `NAME.R`, `NAME.G`, `NAME.B`
+    /// (the passes of a share of a render's samples, for a render farm).
+    pub layers: Vec<(String, &'a Film)>,
 }
 
 /// The place of an image (a region) in a larger image: the OpenEXR data window's origin and the
@@ -89,7 +92,7 @@ pub struct Window {
 
 impl Extras<'_> {
     fn is_empty(&self) -> bool {
-        self.variance.is_none() && self.attributes.is_empty() && self.window.is_none()
+        self.variance.is_none() && self.attributes.is_empty() && self.window.is_none() && self.layers.is_empty()
     }
 }
 
@@ -303,6 +306,12 @@ impl Film {
         if let Some(v) = extras.variance {
             for (c, name) in ["variance.R", "variance.G", "variance.B"].iter().enumerate() {
                 channels.push(AnyChannel::new(*name, plane(v, c)));
+            }
+        }
+        for (name, film) in &extras.layers {
+            assert_eq!((film.width, film.height), (self.width, self.height), "a layer of another size");
+            for (c, channel) in ["R", "G", "B"].iter().enumerate() {
+                channels.push(AnyChannel::new(format!("{name}.{channel}").as_str(), plane(film, c)));
             }
         }
         let mut attributes = LayerAttributes { software_name: Some(Text::from("raylume")), ..Default::default() };
