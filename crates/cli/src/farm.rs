@@ -127,12 +127,8 @@ impl PartPlan {
         options: &RenderOptions,
         full: (u32, u32),
     ) -> Result<PartPlan, Failure> {
-        let bytes = match scene {
-            Some(path) => std::fs::read(path).map_err(|e| bad_input(format!("{}: {e}", path.display())))?,
-            None => fallback.as_bytes().to_vec(),
-        };
         let crop = options.settings.crop.unwrap_or([0, 0, full.0, full.1]);
-        Ok(PartPlan { tile, hash: scene_hash(&bytes, options, full), crop, full })
+        Ok(PartPlan { tile, hash: scene_hash_of(scene, fallback, options, full)?, crop, full })
     }
 
     /// Adds the part's data window and attributes (scene hash, full size, region, tile) to `extras`.
@@ -383,19 +379,16 @@ fn merge_shares(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
     for film in parts.iter().flat_map(|p| &p.passes) {
         accumulator.add_pass(film, None);
     }
-    let film = accumulator.film();
-    let variance = accumulator.variance_film();
     let seconds: f64 = parts.iter().map(|p| p.seconds).sum();
-    let attributes = vec![
-        (SCENE_HASH.to_owned(), MetaValue::Text(first.hash.clone())),
-        ("raylume.seed".to_owned(), MetaValue::Text(first.seed.clone())),
-        ("raylume.spp".to_owned(), MetaValue::Number((first.total * first.per_pass) as f64)),
-        ("raylume.passes".to_owned(), MetaValue::Number(first.total as f64)),
-        ("raylume.seconds".to_owned(), MetaValue::Number(seconds)),
-        ("raylume.parts".to_owned(), MetaValue::Number(parts.len() as f64)),
-    ];
-    let extras = Extras { variance: variance.as_ref(), attributes, ..Extras::default() };
-    film.write_with(output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let identity = Merged {
+        hash: &first.hash,
+        seed: &first.seed,
+        spp: (first.total * first.per_pass) as f64,
+        passes: first.total as f64,
+        seconds,
+        parts: parts.len(),
+    };
+    identity.write(output, &accumulator.film(), accumulator.variance_film().as_ref())?;
     eprintln!(
         "raylume: merged {} shares of the samples into {} ({w}x{h}, {} passes, {seconds:.3} s of rendering in all)",
         parts.len(),
@@ -403,6 +396,32 @@ fn merge_shares(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
         first.total
     );
     Ok(())
+}
+
+/// What a merged image says of itself: the render it comes from and what its parts took.
+struct Merged<'a> {
+    hash: &'a str,
+    seed: &'a str,
+    spp: f64,
+    passes: f64,
+    seconds: f64,
+    parts: usize,
+}
+
+impl Merged<'_> {
+    /// Writes `film` (with `variance` in an EXR) and these attributes to `output`.
+    fn write(&self, output: &Path, film: &Film, variance: Option<&Film>) -> Result<(), Failure> {
+        let attributes = vec![
+            (SCENE_HASH.to_owned(), MetaValue::Text(self.hash.to_owned())),
+            ("raylume.seed".to_owned(), MetaValue::Text(self.seed.to_owned())),
+            ("raylume.spp".to_owned(), MetaValue::Number(self.spp)),
+            ("raylume.passes".to_owned(), MetaValue::Number(self.passes)),
+            ("raylume.seconds".to_owned(), MetaValue::Number(self.seconds)),
+            ("raylume.parts".to_owned(), MetaValue::Number(self.parts as f64)),
+        ];
+        let extras = Extras { variance, attributes, ..Extras::default() };
+        film.write_with(output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })
+    }
 }
 
 /// A part read back: its place, its identity and its pixels.
@@ -639,16 +658,15 @@ pub(crate) fn merge(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
     let film = Film::from_pixels(w, h, rgb);
     let variance = with_variance.then(|| Film::from_pixels(w, h, variance));
     let seconds: f64 = parts.iter().map(|p| p.seconds).sum();
-    let attributes = vec![
-        (SCENE_HASH.to_owned(), MetaValue::Text(first.hash.clone())),
-        ("raylume.seed".to_owned(), MetaValue::Text(first.seed.clone())),
-        ("raylume.spp".to_owned(), MetaValue::Number(first.spp)),
-        ("raylume.passes".to_owned(), MetaValue::Number(first.passes)),
-        ("raylume.seconds".to_owned(), MetaValue::Number(seconds)),
-        ("raylume.parts".to_owned(), MetaValue::Number(parts.len() as f64)),
-    ];
-    let extras = Extras { variance: variance.as_ref(), attributes, ..Extras::default() };
-    film.write_with(output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let identity = Merged {
+        hash: &first.hash,
+        seed: &first.seed,
+        spp: first.spp,
+        passes: first.passes,
+        seconds,
+        parts: parts.len(),
+    };
+    identity.write(output, &film, variance.as_ref())?;
     eprintln!(
         "raylume: merged {} parts into {} ({w}x{h}, {} s of rendering in all)",
         parts.len(),
