@@ -156,6 +156,7 @@ pub(crate) fn scene_hash(scene: &[u8], options: &RenderOptions, full: (u32, u32)
     o.time_limit = None;
     o.noise_threshold = None;
     o.pass_range = None;
+    o.resume = None;
     o.spp = None;
     o.resolution = Some(full);
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;

@@ -442,6 +442,7 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
         noise_threshold: args.noise_threshold,
         adaptive: args.adaptive,
         pass_range: None,
+        resume: None,
     };
     options.validate().map_err(bad_input)?;
     Ok(options)

@@ -78,6 +78,33 @@ impl Accumulator {
         Self { width, height, mean: vec![Vec3::ZERO; n], m2: vec![Vec3::ZERO; n], passes: vec![0; n] }
     }
 
+    /// An accumulator with the state [`parts`](Accumulator::parts) gave: each pixel's mean, sum of
+    /// squared deviations and passes, top row first. Passes added to it then give, bit for bit, what
+    /// they give the accumulator the parts came from (a render resumed from a saved state). `None`
+    /// if a slice is not `width * height` long.
+    ///
+    /// ```
+    /// use raylume_geometry::Vec3;
+    /// use raylume_integrator::{Accumulator, Film};
+    /// let mut a = Accumulator::new(2, 1);
+    /// a.add_pass(&Film::from_pixels(2, 1, vec![Vec3::ONE, Vec3::ZERO]), None);
+    /// let (mean, m2, passes) = a.parts();
+    /// let mut b = Accumulator::from_parts(2, 1, mean.to_vec(), m2.to_vec(), passes.to_vec()).unwrap();
+    /// let pass = Film::from_pixels(2, 1, vec![Vec3::ZERO, Vec3::ONE]);
+    /// a.add_pass(&pass, None);
+    /// b.add_pass(&pass, None);
+    /// assert_eq!(a, b);
+    /// ```
+    pub fn from_parts(width: u32, height: u32, mean: Vec<Vec3>, m2: Vec<Vec3>, passes: Vec<u32>) -> Option<Self> {
+        let n = width as usize * height as usize;
+        (mean.len() == n && m2.len() == n && passes.len() == n).then_some(Self { width, height, mean, m2, passes })
+    }
+
+    /// The state: each pixel's mean, sum of squared deviations from it, and passes, top row first.
+    pub fn parts(&self) -> (&[Vec3], &[Vec3], &[u32]) {
+        (&self.mean, &self.m2, &self.passes)
+    }
+
     /// Width in pixels.
     pub fn width(&self) -> u32 {
         self.width

@@ -14,7 +14,7 @@ use raylume_material::Phong;
 use raylume_scene::{AccelHint, Scene, SceneError, Shape, Warning};
 
 use crate::options::ADAPTIVE_MIN_PASSES;
-use crate::{Features, RenderOptions, RenderOutput, RenderScene, SamplerKind, limits, load_cubemap};
+use crate::{Features, RenderOptions, RenderOutput, RenderScene, RenderState, SamplerKind, limits, load_cubemap};
 
 /// The primitives of a scene with their shading data, in one order.
 pub struct Primitives {
@@ -280,6 +280,7 @@ impl Steps for Scene {
             sampler: options.sampler,
             plan,
             started,
+            resume: options.resume.as_deref(),
         };
         let mut go_on = |_: &Progress| ControlFlow::Continue(());
         let on_pass: OnPass = progressive.unwrap_or(&mut go_on);
@@ -373,6 +374,8 @@ struct Job<'a> {
     plan: Plan,
     /// When the render was asked for (the time limit counts from here).
     started: Instant,
+    /// Where a render that stopped is resumed from.
+    resume: Option<&'a RenderState>,
 }
 
 /// How a render's samples are split into passes, and when it stops.
@@ -547,11 +550,28 @@ impl Job<'_> {
         let [x0, y0, x1, y1] = self.settings.crop.unwrap_or([0, 0, w, h]);
         let (cw, ch) = (x1.min(w).saturating_sub(x0), y1.min(h).saturating_sub(y0));
         let pixels = cw as usize * ch as usize;
-        let mut accumulator = Accumulator::new(cw, ch);
+        let (mut accumulator, first_pass) = match self.resume {
+            Some(state) => {
+                if !state.fits(cw, ch) || !(plan.first_pass..plan.end_pass).contains(&state.next_pass) {
+                    return Err(SceneError::Invalid(format!(
+                        "resuming a render: the state is of another render (expected {cw} x {ch} pixels and a pass from {} to {})",
+                        plan.first_pass,
+                        plan.end_pass - 1
+                    )));
+                }
+                (state.accumulator.clone(), state.next_pass)
+            }
+            None => (Accumulator::new(cw, ch), plan.first_pass),
+        };
+        // The rows of the first pass that the stopped render finished are not rendered again.
+        let partial = self.resume.and_then(|s| s.partial.as_ref());
+        let left: Option<Vec<bool>> = partial
+            .map(|p| p.rows_done.iter().flat_map(|&done| std::iter::repeat_n(!done, cw as usize)).collect());
         let mut stats = RayStats::default();
         let mut active: Option<Vec<bool>> = None;
-        let (mut pixel_passes, mut samples_per_pass) = (0u64, 0u64);
-        for pass in plan.first_pass as usize.. {
+        let mut pixel_passes = accumulator.passes().iter().map(|&k| k as u64).sum::<u64>();
+        let mut samples_per_pass = 0u64;
+        for pass in first_pass as usize.. {
             // Pass 0 keeps the seed, so a one-pass render is the plain render.
             let seed = if pass == 0 {
                 self.settings.seed
@@ -563,9 +583,18 @@ impl Job<'_> {
             samples_per_pass = sampler.samples_per_pixel() as u64;
             let pass_start = Instant::now();
             let mask = active.as_deref();
-            let (film, s) = render_pass(world, camera, &sampler, integrator, &settings, self.observer, mask);
+            let resumed = if pass == first_pass as usize { partial.zip(left.as_deref()) } else { None };
+            let (mut film, s) = match resumed {
+                Some((_, left)) => render_pass(world, camera, &sampler, integrator, &settings, self.observer, Some(left)),
+                None => render_pass(world, camera, &sampler, integrator, &settings, self.observer, mask),
+            };
             if self.observer.cancelled() {
                 return Err(SceneError::Cancelled);
+            }
+            if let Some((done, left)) = resumed {
+                let pixels = film.pixels().iter().zip(done.film.pixels()).zip(left);
+                let joined = pixels.map(|((&new, &old), &rendered)| if rendered { new } else { old }).collect();
+                film = Film::from_pixels(cw, ch, joined);
             }
             let pass_seconds = pass_start.elapsed().as_secs_f64();
             stats += s;

@@ -30,9 +30,11 @@ mod assemble;
 mod env;
 pub mod limits;
 mod options;
+mod resume;
 
 pub use assemble::{PassSplit, Primitives, Progress, pass_split};
 pub use env::load_cubemap;
+pub use resume::{PartialPass, Recorder, RenderState};
 pub use options::{ADAPTIVE_MIN_PASSES, DEFAULT_PASSES, Features, RenderOptions, RenderOutput, SamplerKind};
 pub use raylume_integrator::{Accumulator, Estimate};
 pub use raylume_integrator::{CancelToken, Observer};

@@ -75,6 +75,11 @@ pub struct RenderOptions {
     /// the same seeds): a share of the samples for a render farm, whose pass images put together in
     /// order are the whole render's. Without a budget or adaptive sampling only.
     pub pass_range: Option<(u32, u32)>,
+    /// Finish a render that was stopped, from the state a [`Recorder`](crate::Recorder) kept of it:
+    /// only the rows and passes left are rendered, and the image is, bit for bit, the one the
+    /// render would have made without stopping. The other options must be those of the render
+    /// that stopped. Without a budget or adaptive sampling only.
+    pub resume: Option<std::sync::Arc<crate::RenderState>>,
 }
 
 /// Passes over every pixel before adaptive sampling chooses pixels.
@@ -147,6 +152,10 @@ impl RenderOptions {
                 ));
             }
         }
+        let budget = self.time_limit.is_some() || self.noise_threshold.is_some() || self.adaptive;
+        if self.resume.is_some() && budget {
+            return invalid("resuming a render: expected no budget or adaptive sampling".to_owned());
+        }
         if let Some(e) = self.noise_threshold.filter(|e| !e.is_finite() || *e <= 0.0) {
             return invalid(format!("noise threshold {e}: expected an RMSE > 0"));
         }
@@ -181,6 +190,7 @@ impl Default for RenderOptions {
             noise_threshold: None,
             adaptive: false,
             pass_range: None,
+            resume: None,
         }
     }
 }
