@@ -21,6 +21,7 @@ use raylume_render::{RenderOptions, RenderScene, SamplerKind, limits};
 use raylume_scene::{DEFAULT_SCENE, p3f, procedural};
 
 mod bench;
+mod checkpoint;
 mod converge;
 mod display;
 mod farm;
@@ -165,6 +166,19 @@ struct RenderArgs {
     /// samples), as an .exr part with its pass images, for `raylume merge` (docs/FARM.md).
     #[arg(long, value_name = "A..B", conflicts_with_all = ["tile", "tile_from_env"])]
     samples: Option<String>,
+    /// When a signal (SIGTERM from a scheduler's time limit, SIGINT, SIGHUP) stops the render,
+    /// stop at once and write to STATE (.exr) what `--resume STATE` needs to finish it: the passes
+    /// finished and the rows finished of the pass under way. Removed when the render completes.
+    #[arg(long, value_name = "STATE", conflicts_with = "budget")]
+    checkpoint: Option<PathBuf>,
+    /// With --checkpoint: also write the state after a pass once SECONDS have gone since it was
+    /// last written (a task killed without a signal loses at most that).
+    #[arg(long, value_name = "SECONDS", requires = "checkpoint")]
+    checkpoint_every: Option<f64>,
+    /// Finish the render that --checkpoint STATE stopped: give the scene and flags it had. Only
+    /// what is left is rendered; the image is, bit for bit, the one of the render that never stopped.
+    #[arg(long, value_name = "STATE", conflicts_with = "budget")]
+    resume: Option<PathBuf>,
     /// Print only warnings and errors: no progress bar, no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -302,6 +316,8 @@ pub const STOPPED_EARLY: u8 = 3;
 
 /// Set while a render can stop gracefully at the end of a pass: the first signal then asks it to.
 static GRACEFUL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// Set while a render with a checkpoint runs: the first signal stops it at once and writes its state.
+static CHECKPOINT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 /// Set by the first signal during a render that can stop gracefully.
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
@@ -314,7 +330,11 @@ pub fn run() -> ExitCode {
     let _ = ctrlc::set_handler(|| {
         use std::sync::atomic::Ordering;
         if GRACEFUL.load(Ordering::SeqCst) && !STOP.swap(true, Ordering::SeqCst) {
-            eprintln!("\nraylume: stopping at the end of this pass (again to stop now, writing nothing)");
+            if CHECKPOINT.load(Ordering::SeqCst) {
+                eprintln!("\nraylume: stopping now to write the state (again to stop at once, writing nothing)");
+            } else {
+                eprintln!("\nraylume: stopping at the end of this pass (again to stop now, writing nothing)");
+            }
             return;
         }
         let _held = raylume_integrator::remove_partial_outputs();
@@ -540,6 +560,45 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         }
         None => None,
     };
+    // A render that a signal can stop and resume: what identifies it, and the state it resumes from.
+    let resumable = match (&args.checkpoint, &args.resume) {
+        (None, None) => None,
+        _ => {
+            let file = args.scene.as_deref().or(args.mesh.as_deref());
+            let hash = farm::scene_hash_of(file, DEFAULT_SCENE, &render_options, full)?;
+            let pixels = render_options.settings.crop.unwrap_or([0, 0, full.0, full.1]);
+            let passes = render_options.pass_range.unwrap_or((0, split.passes.unwrap_or(1)));
+            Some(checkpoint::Identity { hash, pixels, full, passes })
+        }
+    };
+    let saved = match (&args.resume, &resumable) {
+        (Some(path), Some(id)) => {
+            let saved = checkpoint::read(path, id)?;
+            if !args.quiet {
+                eprintln!(
+                    "raylume: resuming from {}: {} of {} passes done{}",
+                    path.display(),
+                    saved.state.next_pass - id.passes.0,
+                    id.passes.1 - id.passes.0,
+                    match saved.state.rows_done() {
+                        0 => String::new(),
+                        rows => format!(", and {rows} rows of the next"),
+                    }
+                );
+            }
+            render_options.resume = Some(std::sync::Arc::new(saved.state.clone()));
+            Some(saved)
+        }
+        _ => None,
+    };
+    let recorder = match (&args.checkpoint, &resumable, &saved) {
+        (Some(_), _, Some(saved)) => Some(raylume_render::Recorder::resuming(saved.state.clone())),
+        (Some(_), Some(id), None) => {
+            let [x0, y0, x1, y1] = id.pixels;
+            Some(raylume_render::Recorder::new(x1 - x0, y1 - y0, id.passes.0))
+        }
+        _ => None,
+    };
     let features = scene.features(&render_options).map_err(bad_input)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
@@ -567,12 +626,34 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let display = display::Display::start(&display_options(&args), columns, rows, spp, say(&bar))
         .map_err(|message| Failure { code: 1, message })?;
     let (mut report, mut pass_films) = (Vec::new(), Vec::new());
+    let seconds_before = saved.as_ref().map_or(0.0, |s| s.seconds);
+    if share.is_some() {
+        pass_films = saved.map(|s| s.pass_films).unwrap_or_default();
+    }
+    let (render_started, mut last_checkpoint) = (std::time::Instant::now(), std::time::Instant::now());
+    CHECKPOINT.store(recorder.is_some(), std::sync::atomic::Ordering::SeqCst);
     GRACEFUL.store(true, std::sync::atomic::Ordering::SeqCst);
     let rendered = pool.install(|| {
         let on_pass = |p: &raylume_render::Progress| {
             report.push(report::Row::of(p));
             if share.is_some() {
                 pass_films.push(p.pass_film.clone());
+            }
+            if let (Some(recorder), Some(id), Some(path)) = (&recorder, &resumable, &args.checkpoint) {
+                recorder.on_pass(p);
+                let every = args.checkpoint_every.unwrap_or(f64::INFINITY);
+                let last = p.pass as u32 + 1 == id.passes.1;
+                if !last && last_checkpoint.elapsed().as_secs_f64() >= every {
+                    let saved = checkpoint::Saved {
+                        state: recorder.state(),
+                        pass_films: pass_films.clone(),
+                        seconds: seconds_before + p.seconds,
+                    };
+                    match checkpoint::write(path, id, &saved) {
+                        Ok(()) => last_checkpoint = std::time::Instant::now(),
+                        Err(f) => bar.suspend(|| eprintln!("raylume: warning: checkpoint not written: {}", f.message)),
+                    }
+                }
             }
             if known_passes.is_none() {
                 bar.set_position(0);
@@ -585,33 +666,60 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
                 d.show_pass(p.film, p.samples_per_pixel, p.seconds, p.estimate.map(|e| e.rmse));
             }
             let window_closed = display.as_ref().is_some_and(|d| d.stop_requested());
-            if STOP.load(std::sync::atomic::Ordering::SeqCst) || window_closed {
+            // With a checkpoint a signal stops the render at once, through the observer.
+            let signalled = STOP.load(std::sync::atomic::Ordering::SeqCst) && recorder.is_none();
+            if signalled || window_closed {
                 std::ops::ControlFlow::Break(())
             } else {
                 std::ops::ControlFlow::Continue(())
             }
         };
-        let count = || bar.inc(1);
-        match &display {
-            Some(d) => scene.render_progressive(&render_options, &(count, d), on_pass),
-            None => scene.render_progressive(&render_options, &count, on_pass),
-        }
-        .map_err(bad_input)
+        let watch = Watch { count: || bar.inc(1), display: display.as_ref(), recorder: recorder.clone() };
+        scene.render_progressive(&render_options, &watch, on_pass)
     });
     // From here a signal ends the process at once (the write leaves no partial file).
     GRACEFUL.store(false, std::sync::atomic::Ordering::SeqCst);
     bar.finish_and_clear();
+    let rendered = match (rendered, &recorder, &resumable, &args.checkpoint) {
+        (Err(raylume_scene::SceneError::Cancelled), Some(recorder), Some(id), Some(path))
+            if STOP.load(std::sync::atomic::Ordering::SeqCst) =>
+        {
+            let state = recorder.state();
+            let (done, rows) = (state.next_pass - id.passes.0, state.rows_done());
+            let seconds = seconds_before + render_started.elapsed().as_secs_f64();
+            checkpoint::write(path, id, &checkpoint::Saved { state, pass_films, seconds })?;
+            return Err(Failure {
+                code: STOPPED_EARLY,
+                message: format!(
+                    "stopped by a signal: wrote the state ({done} of {} passes done, and {rows} rows of the next) to {}; \
+                     --resume {} with the same flags finishes the render",
+                    id.passes.1 - id.passes.0,
+                    path.display(),
+                    path.display()
+                ),
+            });
+        }
+        (rendered, ..) => rendered.map_err(bad_input),
+    };
     // The window closed during the first pass cancels it: its rows done are the image.
     let out = match (rendered, &display) {
         (Err(_), Some(d)) if d.stop_requested() => return stopped_from_window(display, &args.output),
         (out, _) => out?,
     };
     let window_closed = display.as_ref().is_some_and(|d| d.stop_requested());
-    let stopped = STOP.load(std::sync::atomic::Ordering::SeqCst) || window_closed;
+    // A render with a checkpoint that ends is complete, whenever a signal came.
+    let stopped = (STOP.load(std::sync::atomic::Ordering::SeqCst) && recorder.is_none()) || window_closed;
     for w in &out.warnings {
         eprintln!("{w}");
     }
-    let attributes = report::attributes(&out, settings.seed, spp, &render_options);
+    let mut attributes = report::attributes(&out, settings.seed, spp, &render_options);
+    if seconds_before > 0.0 {
+        for (name, value) in &mut attributes {
+            if name == "raylume.seconds" {
+                *value = raylume_integrator::MetaValue::Number(out.render_seconds + seconds_before);
+            }
+        }
+    }
     let mut extras = raylume_integrator::Extras { variance: out.variance.as_ref(), attributes, ..Default::default() };
     if let Some(part) = &part {
         part.add_to(&mut extras);
@@ -627,6 +735,10 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     out.film.write_with(&args.output, &extras).map_err(|e| Failure { code: 1, message: e.to_string() })?;
     if let Some(dir) = &args.report {
         report::write(dir, &report, &scene_title(&args))?;
+    }
+    // The render is complete: its state would only resume a finished render.
+    if let Some(path) = args.checkpoint.as_ref().filter(|p| !stopped && p.is_file()) {
+        let _ = std::fs::remove_file(path);
     }
     let done = if stopped {
         Err(Failure {
@@ -685,6 +797,34 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         d.finish();
     }
     done
+}
+
+/// The observer of a render from the command line: it counts rows for the progress bar, shows them
+/// in the display, keeps the state for a checkpoint, and with a checkpoint stops at once on a signal.
+struct Watch<'a, F> {
+    count: F,
+    display: Option<&'a display::Display>,
+    recorder: Option<raylume_render::Recorder>,
+}
+
+impl<F: Fn() + Sync> raylume_render::Observer for Watch<'_, F> {
+    fn row_done(&self) {
+        (self.count)();
+    }
+
+    fn rows_done(&self, first_row: u32, width: u32, pixels: &[raylume_geometry::Vec3]) {
+        if let Some(d) = self.display {
+            d.rows_done(first_row, width, pixels);
+        }
+        if let Some(r) = &self.recorder {
+            r.rows_done(first_row, width, pixels);
+        }
+    }
+
+    fn cancelled(&self) -> bool {
+        let signalled = self.recorder.is_some() && STOP.load(std::sync::atomic::Ordering::SeqCst);
+        signalled || self.display.is_some_and(|d| d.cancelled())
+    }
 }
 
 /// The scene's name for titles: its file name, else the default scene's.

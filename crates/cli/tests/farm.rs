@@ -261,3 +261,107 @@ fn shares_of_the_samples_merge_into_the_one_machine_render() {
     refused(&share("0..4", &dir.join("y.png"), "1"), "is written as .exr");
     assert!(!dir.join("x.pfm").exists() && !dir.join("y.exr").exists());
 }
+
+fn signal(pid: u32, name: &str) {
+    let status = Command::new("kill").arg(format!("-{name}")).arg(pid.to_string()).status().unwrap();
+    assert!(status.success());
+}
+
+/// Runs `render` with `flags` and `--checkpoint state`, resuming from `state` while it exists,
+/// sending SIGTERM (as a scheduler's time limit does) `after` into each run, until a run completes.
+/// Returns how many runs the signal stopped.
+fn render_with_stops(flags: &[&str], state: &Path, out: &Path, after: std::time::Duration) -> usize {
+    let mut stops = 0;
+    for _ in 0..30 {
+        let mut cmd = raylume();
+        cmd.arg("render").args(flags).arg("--checkpoint").arg(state).arg("-o").arg(out);
+        if state.exists() {
+            cmd.arg("--resume").arg(state);
+        }
+        let child = cmd.stderr(std::process::Stdio::piped()).spawn().unwrap();
+        std::thread::sleep(after);
+        signal(child.id(), "TERM");
+        let run = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        match run.status.code() {
+            Some(0) => {
+                assert!(!state.exists(), "the state of a complete render is removed");
+                return stops;
+            }
+            Some(3) => {
+                assert!(stderr.contains("wrote the state") && state.exists(), "{stderr}");
+                stops += 1;
+            }
+            // The signal came before the render began (while the scene loaded): nothing to keep.
+            Some(130) => assert!(!stderr.contains("wrote"), "{stderr}"),
+            code => panic!("exit {code:?}: {stderr}"),
+        }
+    }
+    panic!("30 runs did not complete the render");
+}
+
+/// A task stopped by SIGTERM writes its state; resumed, however often it is stopped, it writes the
+/// image of the task that never stopped, byte for byte: a whole frame, and a share of the samples.
+#[test]
+fn a_task_stopped_by_a_signal_resumes_to_the_image_it_would_have_made() {
+    let dir = temp_dir("resume");
+    let flags = ["--width", "320", "--height", "200", "--spp", "16", "--threads", "1", "--quiet"];
+    let full = dir.join("full.pfm");
+    let start = std::time::Instant::now();
+    ok(&raylume().arg("render").args(flags).arg("-o").arg(&full).output().unwrap());
+    let after = start.elapsed().mul_f64(0.4).max(std::time::Duration::from_millis(150));
+    let state = dir.join("state.exr");
+    let resumed = dir.join("resumed.pfm");
+    let stops = render_with_stops(&flags, &state, &resumed, after);
+    assert!(stops >= 1, "no run was stopped (a whole render takes {:?})", start.elapsed());
+    assert_eq!(std::fs::read(&resumed).unwrap(), std::fs::read(&full).unwrap(), "{stops} stops");
+    println!("the whole frame was stopped {stops} times and resumed");
+    // A share of the samples keeps the images of its passes across stops.
+    let mut shares = Vec::new();
+    for (i, range) in ["0..4", "4..12", "12..16"].iter().enumerate() {
+        let share = dir.join(format!("share-{i}.exr"));
+        let mut f = flags.to_vec();
+        f.extend(["--samples", range]);
+        if *range == "4..12" {
+            render_with_stops(&f, &state, &share, after.mul_f64(0.5));
+        } else {
+            ok(&raylume().arg("render").args(&f).arg("-o").arg(&share).output().unwrap());
+        }
+        shares.push(share);
+    }
+    let merged = dir.join("merged.pfm");
+    ok(&merge(&merged, &shares));
+    assert_eq!(std::fs::read(&merged).unwrap(), std::fs::read(&full).unwrap());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_state_of_another_render_or_a_file_that_is_no_state_is_refused() {
+    let dir = temp_dir("state");
+    let state = dir.join("state.exr");
+    let big = ["--width", "400", "--height", "250", "--spp", "64", "--threads", "1", "--quiet"];
+    let resume = |extra: &[&str], state: &Path| {
+        let out = dir.join("out.pfm");
+        raylume().arg("render").args(big).args(extra).arg("--resume").arg(state).arg("-o").arg(out).output().unwrap()
+    };
+    refused(&resume(&[], &dir.join("none.exr")), "none.exr: No such file");
+    let image = dir.join("image.exr");
+    ok(&render(&[], &image));
+    refused(&resume(&[], &image), "image.exr: no raylume.next_pass attribute: not a state written by raylume render");
+    let mut child = raylume()
+        .arg("render")
+        .args(big)
+        .arg("--checkpoint")
+        .arg(&state)
+        .arg("-o")
+        .arg(dir.join("big.pfm"))
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(400));
+    signal(child.id(), "TERM");
+    assert_eq!(child.wait().unwrap().code(), Some(3));
+    refused(&resume(&["--seed", "7"], &state), "state.exr: the state of another render: its scene hash differs");
+    refused(&resume(&["--crop", "0", "0", "40", "25"], &state), "state.exr: the state of another part of the render");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -565,8 +565,8 @@ impl Job<'_> {
         };
         // The rows of the first pass that the stopped render finished are not rendered again.
         let partial = self.resume.and_then(|s| s.partial.as_ref());
-        let left: Option<Vec<bool>> = partial
-            .map(|p| p.rows_done.iter().flat_map(|&done| std::iter::repeat_n(!done, cw as usize)).collect());
+        let left: Option<Vec<bool>> =
+            partial.map(|p| p.rows_done.iter().flat_map(|&done| std::iter::repeat_n(!done, cw as usize)).collect());
         let mut stats = RayStats::default();
         let mut active: Option<Vec<bool>> = None;
         let mut pixel_passes = accumulator.passes().iter().map(|&k| k as u64).sum::<u64>();
@@ -585,7 +585,9 @@ impl Job<'_> {
             let mask = active.as_deref();
             let resumed = if pass == first_pass as usize { partial.zip(left.as_deref()) } else { None };
             let (mut film, s) = match resumed {
-                Some((_, left)) => render_pass(world, camera, &sampler, integrator, &settings, self.observer, Some(left)),
+                Some((_, left)) => {
+                    render_pass(world, camera, &sampler, integrator, &settings, self.observer, Some(left))
+                }
                 None => render_pass(world, camera, &sampler, integrator, &settings, self.observer, mask),
             };
             if self.observer.cancelled() {

@@ -34,10 +34,10 @@ mod resume;
 
 pub use assemble::{PassSplit, Primitives, Progress, pass_split};
 pub use env::load_cubemap;
-pub use resume::{PartialPass, Recorder, RenderState};
 pub use options::{ADAPTIVE_MIN_PASSES, DEFAULT_PASSES, Features, RenderOptions, RenderOutput, SamplerKind};
 pub use raylume_integrator::{Accumulator, Estimate};
 pub use raylume_integrator::{CancelToken, Observer};
+pub use resume::{PartialPass, Recorder, RenderState};
 
 /// Rendering a [`Scene`]: the methods are [`Scene`]'s once the trait is in scope (it is in
 /// `raylume::prelude`).

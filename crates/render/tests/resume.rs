@@ -62,8 +62,12 @@ fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
 fn a_render_stopped_anywhere_resumes_to_the_image_of_the_render_that_never_stopped() {
     let scene = default_scene();
     for (accel, spp, threads) in [(AccelKind::Bvh, 16, 1), (AccelKind::None, 16, 2), (AccelKind::Bvh, 1, 2)] {
-        let options =
-            RenderOptions { resolution: Some((40, 25)), spp: Some(spp), accel: Some(accel), ..RenderOptions::default() };
+        let options = RenderOptions {
+            resolution: Some((40, 25)),
+            spp: Some(spp),
+            accel: Some(accel),
+            ..RenderOptions::default()
+        };
         let whole = scene.render(&options, &()).unwrap();
         let passes = whole.passes as usize;
         let mut stops = 0;
@@ -124,7 +128,8 @@ fn a_state_of_another_render_is_refused() {
     );
     let finished = RenderState::new(16, 10, 4);
     assert!(scene.render(&RenderOptions { resume: Some(Arc::new(finished)), ..options.clone() }, &()).is_err());
-    let budget = RenderOptions { resume: Some(Arc::new(RenderState::new(16, 10, 0))), time_limit: Some(1.0), ..options };
+    let budget =
+        RenderOptions { resume: Some(Arc::new(RenderState::new(16, 10, 0))), time_limit: Some(1.0), ..options };
     assert_eq!(
         scene.render(&budget, &()).unwrap_err().to_string(),
         "resuming a render: expected no budget or adaptive sampling"
