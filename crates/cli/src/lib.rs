@@ -485,6 +485,18 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     // Everything the flags alone decide is checked before the scene is read.
     let mut render_options = render_options(&args)?;
     check_output(&args.output, true)?;
+    if let Some(state) = &args.checkpoint {
+        if raylume_integrator::ImageFormat::from_path(state).ok() != Some(raylume_integrator::ImageFormat::Exr) {
+            return Err(bad_input(format!("--checkpoint {}: a state is written as .exr", state.display())));
+        }
+        if state == &args.output {
+            return Err(bad_input(format!("--checkpoint {}: the state and the image need two files", state.display())));
+        }
+        check_output(state, true)?;
+    }
+    if let Some(e) = args.checkpoint_every.filter(|e| !(e.is_finite() && *e >= 0.0)) {
+        return Err(bad_input(format!("--checkpoint-every {e}: expected seconds >= 0")));
+    }
     let options = p3f::LoadOptions {
         strict: args.strict,
         env_dirs: args.env_dir.clone(),

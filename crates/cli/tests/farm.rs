@@ -345,6 +345,20 @@ fn a_state_of_another_render_or_a_file_that_is_no_state_is_refused() {
         raylume().arg("render").args(big).args(extra).arg("--resume").arg(state).arg("-o").arg(out).output().unwrap()
     };
     refused(&resume(&[], &dir.join("none.exr")), "none.exr: No such file");
+    let checkpoint = |extra: &[&str]| {
+        raylume()
+            .current_dir(&dir)
+            .args(["render", "--width", "8", "--height", "5", "--quiet"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    refused(
+        &checkpoint(&["--checkpoint", "state.png", "-o", "x.png"]),
+        "--checkpoint state.png: a state is written as .exr",
+    );
+    refused(&checkpoint(&["--checkpoint", "x.exr", "-o", "x.exr"]), "the state and the image need two files");
+    refused(&checkpoint(&["--checkpoint", "s.exr", "--checkpoint-every=-1", "-o", "x.exr"]), "expected seconds >= 0");
     let image = dir.join("image.exr");
     ok(&render(&[], &image));
     refused(&resume(&[], &image), "image.exr: no raylume.next_pass attribute: not a state written by raylume render");
