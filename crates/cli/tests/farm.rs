@@ -379,3 +379,41 @@ fn a_state_of_another_render_or_a_file_that_is_no_state_is_refused() {
     refused(&resume(&["--crop", "0", "0", "40", "25"], &state), "state.exr: the state of another part of the render");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A task killed without a signal it can answer (SIGKILL: a lost node, an expired grace period)
+/// resumes from the state `--checkpoint-every` wrote after its last pass, to the same image.
+#[test]
+fn a_killed_task_resumes_from_its_last_periodic_state() {
+    let dir = temp_dir("killed");
+    let flags = ["--width", "320", "--height", "200", "--spp", "16", "--threads", "1", "--quiet"];
+    let full = dir.join("full.pfm");
+    let start = std::time::Instant::now();
+    ok(&raylume().arg("render").args(flags).arg("-o").arg(&full).output().unwrap());
+    let whole = start.elapsed();
+    let (state, out) = (dir.join("state.exr"), dir.join("out.pfm"));
+    let mut kills_with_state = 0;
+    for _ in 0..20 {
+        let mut cmd = raylume();
+        cmd.arg("render").args(flags).args(["--checkpoint-every", "0", "--checkpoint"]).arg(&state).arg("-o").arg(&out);
+        if state.exists() {
+            cmd.arg("--resume").arg(&state);
+        }
+        let mut child = cmd.stderr(std::process::Stdio::null()).spawn().unwrap();
+        std::thread::sleep(whole.mul_f64(0.6));
+        signal(child.id(), "KILL");
+        let status = child.wait().unwrap();
+        if status.success() {
+            break;
+        }
+        kills_with_state += state.exists() as usize;
+    }
+    assert!(kills_with_state >= 1, "no kill left a state (a whole render takes {whole:?})");
+    let mut cmd = raylume();
+    cmd.arg("render").args(flags).arg("--checkpoint").arg(&state).arg("-o").arg(&out);
+    if state.exists() {
+        cmd.arg("--resume").arg(&state);
+    }
+    ok(&cmd.output().unwrap());
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&full).unwrap());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
