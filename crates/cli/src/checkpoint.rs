@@ -15,7 +15,7 @@ use raylume_geometry::Vec3;
 use raylume_integrator::{Accumulator, Extras, Film, ImageFormat, MAX_IMAGE_PIXELS, MetaValue, Window};
 use raylume_render::{PartialPass, RenderState};
 
-use crate::farm::SCENE_HASH;
+use crate::farm::{SCENE_HASH, read_exr, rgb_channels};
 use crate::{Failure, bad_input};
 
 /// Header attribute that makes a file a state: the pass to render next.
@@ -97,16 +97,7 @@ pub(crate) fn read(path: &Path, id: &Identity) -> Result<Saved, Failure> {
     if ImageFormat::from_path(path).ok() != Some(ImageFormat::Exr) {
         return Err(not_state("not an .exr file"));
     }
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .pedantic()
-        .non_parallel()
-        .from_file(path)
-        .map_err(|e| fail(format!("unreadable OpenEXR state (truncated or damaged?): {e}")))?;
+    let image = read_exr(path).map_err(|e| fail(format!("unreadable OpenEXR state (truncated or damaged?): {e}")))?;
     let layer = &image.layer_data;
     let attribute = |name: &str| layer.attributes.other.get(&Text::from(name));
     let text = |name: &str| match attribute(name) {
@@ -144,16 +135,7 @@ pub(crate) fn read(path: &Path, id: &Identity) -> Result<Saved, Failure> {
         return Err(fail(format!("{NEXT_PASS} {next_pass}: expected a pass in {range}")));
     }
     let n = w as usize * h as usize;
-    let rgb = |name: &str| -> Option<Vec<Vec3>> {
-        let channel = |c: &str| -> Option<Vec<f32>> {
-            let key = Text::from(if name.is_empty() { c.to_owned() } else { format!("{name}.{c}") }.as_str());
-            let found = layer.channel_data.list.iter().find(|ch| ch.name == key)?;
-            let values: Vec<f32> = found.sample_data.values_as_f32().collect();
-            (values.len() == n).then_some(values)
-        };
-        let (r, g, b) = (channel("R")?, channel("G")?, channel("B")?);
-        Some(r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)).collect())
-    };
+    let rgb = |name: &str| rgb_channels(layer, name);
     let missing = |name: &str| not_state(&format!("no {name}.R, .G, .B channels"));
     let mean = rgb("").ok_or_else(|| missing("image"))?;
     let m2 = rgb("state.m2").ok_or_else(|| missing("state.m2"))?;

@@ -277,16 +277,7 @@ fn read_share(path: &Path) -> Result<SharePart, Failure> {
     if meta.len() > MAX_IMAGE_PIXELS * 12 * 64 {
         return Err(fail(format!("{} bytes is more than a share of the samples can be", meta.len())));
     }
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .pedantic()
-        .non_parallel()
-        .from_file(path)
-        .map_err(|e| fail(format!("unreadable OpenEXR part (truncated or damaged?): {e}")))?;
+    let image = read_exr(path).map_err(|e| fail(format!("unreadable OpenEXR part (truncated or damaged?): {e}")))?;
     let layer = &image.layer_data;
     let attribute = |name: &str| layer.attributes.other.get(&Text::from(name));
     let number = |name: &str| match attribute(name) {
@@ -298,19 +289,10 @@ fn read_share(path: &Path) -> Result<SharePart, Failure> {
         _ => Err(fail(format!("no {name} attribute: not a share written by raylume render --samples"))),
     };
     let (w, h) = (layer.size.0 as u32, layer.size.1 as u32);
-    let n = w as usize * h as usize;
-    let channel = |name: &str| -> Option<Vec<f32>> {
-        let key = Text::from(name);
-        let c = layer.channel_data.list.iter().find(|c| c.name == key)?;
-        let v: Vec<f32> = c.sample_data.values_as_f32().collect();
-        (v.len() == n).then_some(v)
-    };
     let (first, total) = (number(FIRST_PASS)? as u32, number(TOTAL_PASSES)? as u32);
     let mut passes = Vec::new();
     for k in first..total {
-        let names = ["R", "G", "B"].map(|c| format!("pass{k}.{c}"));
-        let [Some(r), Some(g), Some(b)] = names.map(|n| channel(&n)) else { break };
-        let pixels = r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)).collect();
+        let Some(pixels) = rgb_channels(layer, &format!("pass{k}")) else { break };
         passes.push(Film::from_pixels(w, h, pixels));
     }
     if passes.is_empty() {
@@ -327,6 +309,41 @@ fn read_share(path: &Path) -> Result<SharePart, Failure> {
         seconds: number("raylume.seconds")?,
         passes,
     })
+}
+
+/// The first layer of an OpenEXR file, with every channel and attribute.
+pub(crate) type ExrImage =
+    exr::prelude::Image<exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>>;
+
+/// Reads the first layer of the OpenEXR file at `path`, strictly (a truncated or damaged file is an error).
+pub(crate) fn read_exr(path: &Path) -> exr::error::Result<ExrImage> {
+    use exr::prelude::*;
+    read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .pedantic()
+        .non_parallel()
+        .from_file(path)
+}
+
+/// The channels `NAME.R`, `NAME.G`, `NAME.B` of `layer` (`R`, `G`, `B` for an empty name) as colours,
+/// if all three are there with a value per pixel.
+pub(crate) fn rgb_channels(
+    layer: &exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>,
+    name: &str,
+) -> Option<Vec<Vec3>> {
+    let n = layer.size.0 * layer.size.1;
+    let channel = |c: &str| -> Option<Vec<f32>> {
+        let key = if name.is_empty() { c.to_owned() } else { format!("{name}.{c}") };
+        let found = layer.channel_data.list.iter().find(|ch| ch.name == *key.as_str())?;
+        let values: Vec<f32> = found.sample_data.values_as_f32().collect();
+        (values.len() == n).then_some(values)
+    };
+    let (r, g, b) = (channel("R")?, channel("G")?, channel("B")?);
+    Some(r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)).collect())
 }
 
 /// Adds shares of the samples in the order of their passes, as one machine adds its passes, and
