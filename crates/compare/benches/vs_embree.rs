@@ -6,10 +6,11 @@
 //! and streams (`rtcIntersect1M` / `rtcOccluded1M`, a tile per call), both with the coherent flag.
 //! What each Embree call makes per ray is in [`common::Embree`].
 //!
-//! Every row is timed in alternating passes (raylume, Embree, the other Embree call, raylume, ...:
-//! each pass all rays of the set once), the median pass of each engine, so that the machine's load
-//! falls on all engines alike. It prints the table docs/PERFORMANCE.md#against-obvhs-and-embree
-//! carries and how many rays each engine found hit or occluded.
+//! Every row is timed in alternating passes (raylume, Embree, the other Embree call, then again
+//! from the next engine on: each pass all rays of the set once), the median pass of each engine, so
+//! that the machine's load falls on all engines alike. It prints the tables that
+//! docs/PERFORMANCE.md#against-obvhs-and-embree carries and how many rays each engine found hit or
+//! occluded.
 //!
 //! `cargo bench -p raylume-compare --features embree --bench vs_embree [-- MESH...]` (default: all
 //! three meshes). `RAYLUME_COMPARE_SIDE=512` shrinks the 1024x1024 ray sets; `RAYLUME_EMBREE_PASSES`
@@ -148,11 +149,13 @@ fn run(
     }
     let mut times = vec![Vec::new(); engines.len()];
     let mut counts = vec![0; engines.len()];
-    for _ in 0..passes.max(1) {
-        for ((_, pass), (times, count)) in engines.iter_mut().zip(times.iter_mut().zip(&mut counts)) {
+    // Each round starts with the next engine, so that none always follows the same one.
+    for round in 0..passes.max(1) {
+        for k in 0..engines.len() {
+            let e = (round + k) % engines.len();
             let start = Instant::now();
-            *count = black_box(pass());
-            times.push(start.elapsed().as_secs_f64());
+            counts[e] = black_box((engines[e].1)());
+            times[e].push(start.elapsed().as_secs_f64());
         }
     }
     let engines = times
