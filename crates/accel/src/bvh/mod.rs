@@ -289,8 +289,8 @@ impl<P: Intersect> Bvh<P> {
         let mut found = [None; stream::PACKET];
         let (n, t_min) = (rays.len(), t_range.min);
         tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
-        for (hit, found) in hits.iter_mut().zip(found) {
-            if let Some(found) = found {
+        for (hit, found) in hits.iter_mut().zip(&found) {
+            if let Some(found) = *found {
                 let (h, primitive) = tris.hit(found);
                 *hit = Some(PrimitiveHit { hit: h, primitive });
             }
@@ -372,22 +372,30 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
         for (rays, hits) in rays.chunks(stream::PACKET).zip(hits.chunks_mut(stream::PACKET)) {
-            // A packet walks the canonical rays when they share one scale (unit directions do).
+            let Some(tris) = self.triangles.as_ref().filter(|_| !t_range.min.is_nan() && !t_range.max.is_nan()) else {
+                closest_ray_by_ray(self, rays, t_range, hits);
+                continue;
+            };
+            // Canonical rays (unit directions mostly are) walk as they are; others walk their
+            // canonical forms when those share one scale.
+            if let Some(negative) = stream::canonical_signs(rays) {
+                self.closest_packet(tris, rays, negative, t_range, hits);
+                continue;
+            }
             let scaled = same_scale(rays);
-            match (&self.triangles, &scaled) {
-                (Some(tris), Some((canonical, s))) if !t_range.min.is_nan() && !t_range.max.is_nan() => {
-                    let canonical = &canonical[..rays.len()];
-                    match stream::common_signs(canonical) {
-                        Some(negative) => {
-                            self.closest_packet(tris, canonical, negative, t_range.on_canonical(*s), hits);
-                            for h in hits.iter_mut().flatten() {
-                                h.hit.t *= s;
-                            }
-                        }
-                        None => closest_ray_by_ray(self, rays, t_range, hits),
+            let Some((canonical, s)) = &scaled else {
+                closest_ray_by_ray(self, rays, t_range, hits);
+                continue;
+            };
+            let canonical = &canonical[..rays.len()];
+            match stream::common_signs(canonical) {
+                Some(negative) => {
+                    self.closest_packet(tris, canonical, negative, t_range.on_canonical(*s), hits);
+                    for h in hits.iter_mut().flatten() {
+                        h.hit.t *= s;
                     }
                 }
-                _ => closest_ray_by_ray(self, rays, t_range, hits),
+                None => closest_ray_by_ray(self, rays, t_range, hits),
             }
         }
     }
@@ -395,22 +403,26 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
         for (rays, occluded) in rays.chunks(stream::PACKET).zip(occluded.chunks_mut(stream::PACKET)) {
+            let Some(tris) = self.triangles.as_ref().filter(|_| !t_max.is_nan()) else {
+                occluded_ray_by_ray(self, rays, t_max, occluded);
+                continue;
+            };
+            if let Some(negative) = stream::canonical_signs(rays) {
+                self.occluded_packet(tris, rays, negative, t_max, occluded);
+                continue;
+            }
             let scaled = same_scale(rays);
-            match (&self.triangles, &scaled) {
-                (Some(tris), Some((canonical, s))) if !t_max.is_nan() => {
-                    let canonical = &canonical[..rays.len()];
-                    match stream::common_signs(canonical) {
-                        Some(negative) => self.occluded_packet(
-                            tris,
-                            canonical,
-                            negative,
-                            Interval::new(0.0, t_max).on_canonical(*s).max,
-                            occluded,
-                        ),
-                        None => occluded_ray_by_ray(self, rays, t_max, occluded),
-                    }
+            let Some((canonical, s)) = &scaled else {
+                occluded_ray_by_ray(self, rays, t_max, occluded);
+                continue;
+            };
+            let canonical = &canonical[..rays.len()];
+            match stream::common_signs(canonical) {
+                Some(negative) => {
+                    let t_max = Interval::new(0.0, t_max).on_canonical(*s).max;
+                    self.occluded_packet(tris, canonical, negative, t_max, occluded);
                 }
-                _ => occluded_ray_by_ray(self, rays, t_max, occluded),
+                None => occluded_ray_by_ray(self, rays, t_max, occluded),
             }
         }
     }

@@ -26,6 +26,19 @@ pub(super) fn common_signs(rays: &[Ray]) -> Option<[bool; 3]> {
         .then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
 }
 
+/// [`common_signs`] of rays that are each canonical already ([`Ray::is_canonical`]), checked in one
+/// pass: the rays the packet query walks as they are (the primary rays of a camera, whose directions
+/// are unit vectors, mostly are); `None` if one is not.
+pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
+    let first = rays.first()?;
+    let signs = first.dir.cmplt(Vec3A::ZERO).bitmask();
+    rays.iter()
+        .all(|r| {
+            r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && r.dir.cmplt(Vec3A::ZERO).bitmask() == signs
+        })
+        .then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
+}
+
 /// Four rays of a packet, lane by lane, for the box test of a leaf: each lane's answer is the one
 /// [`BoxRay`](super::wide::BoxRay) gives that ray, with the same operations.
 #[derive(Clone, Copy, Debug)]
@@ -79,6 +92,7 @@ struct Rays<'a> {
 }
 
 impl<'a> Rays<'a> {
+    #[inline(always)]
     fn new(rays: &'a [Ray], t_max: &[f32]) -> Self {
         let mut groups =
             [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
@@ -237,9 +251,10 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
     /// that meets its box. With `ANY`, the walk stops once every ray is retired.
     #[inline(always)]
     fn walk<const ANY: bool>(&self, rays: &[Ray], negative: [bool; 3], t_min: f32, t_max: &[f32], test: impl RayTest) {
-        let state = Rays::new(rays, t_max);
-        let start = state.t_max();
-        let mut leaf = PacketLeaf { state, leaf_bounds: self.leaf_bounds, negative, t_min, test };
+        // The rays' state is made in place: it is a few kilobytes.
+        let mut leaf =
+            PacketLeaf { state: Rays::new(rays, t_max), leaf_bounds: self.leaf_bounds, negative, t_min, test };
+        let start = leaf.state.t_max();
         self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
     }
 }

@@ -58,9 +58,13 @@ pub fn to_obvhs_triangles(tris: &[Triangle]) -> Vec<OTriangle> {
         .collect()
 }
 
-/// Embree 3's scene over the same triangles (default flags and medium build quality, one build
-/// thread), for the rows of the comparison that name it. Embree picks the widest kernels the CPU has;
-/// `RAYLUME_EMBREE_ISA=sse2|sse4.2|avx|avx2` caps them.
+/// Embree 3's scene over the same triangles, made as an Embree user makes it: medium build quality
+/// (`RTC_BUILD_QUALITY_MEDIUM`, Embree's default, set explicitly), no scene flags unless asked for
+/// the robust one, one build thread. Each query takes raylume's `Ray` and makes Embree's ray from it
+/// the way a caller of `rtcIntersect1` does, per call: an `RTCRayHit` (`tnear` 0, `tfar` infinity)
+/// and an intersect context (`rtcInitIntersectContext`'s: incoherent, no filter). Embree picks the
+/// widest kernels the CPU has; `RAYLUME_EMBREE_ISA=sse2|sse4.2|avx|avx2` caps them, and
+/// `RAYLUME_EMBREE_VERBOSE=n` sets Embree's verbosity (2 prints its BVH statistics and kernels).
 #[cfg(feature = "embree")]
 pub struct Embree {
     // The scene borrows the device's handle; both live as long as this.
@@ -68,10 +72,21 @@ pub struct Embree {
     _device: embree3::Device,
 }
 
+/// A packet of eight lanes' valid mask, aligned as `rtcIntersect8` reads it.
+#[cfg(feature = "embree")]
+#[repr(C, align(32))]
+struct Valid8(embree3::ValidMaskN<8>);
+
 #[cfg(feature = "embree")]
 impl Embree {
+    /// The scene with default flags.
     pub fn build(tris: &[Triangle]) -> Self {
-        use embree3::{BufferUsage, Config, Device, Format, GeometryKind, Isa};
+        Self::with_flags(tris, false)
+    }
+
+    /// The scene, with `RTC_SCENE_FLAG_ROBUST` if `robust`.
+    pub fn with_flags(tris: &[Triangle], robust: bool) -> Self {
+        use embree3::{BufferUsage, BuildQuality, Config, Device, Format, GeometryKind, Isa, SceneFlags};
         let max_isa = match std::env::var("RAYLUME_EMBREE_ISA").as_deref() {
             Ok("sse2") => Isa::Sse2,
             Ok("sse4.2") => Isa::Sse4_2,
@@ -79,8 +94,9 @@ impl Embree {
             Ok("avx2") => Isa::Avx2,
             _ => Isa::Avx512,
         };
-        let device =
-            Device::with_config(Config { threads: 1, max_isa, ..Config::default() }).expect("an Embree device");
+        let verbose = std::env::var("RAYLUME_EMBREE_VERBOSE").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+        let device = Device::with_config(Config { threads: 1, max_isa, verbose, ..Config::default() })
+            .expect("an Embree device");
         let mut mesh = device.create_geometry(GeometryKind::TRIANGLE).expect("a triangle geometry");
         let vertices: Vec<[f32; 3]> = tris.iter().flat_map(|t| t.p.map(|p| p.to_array())).collect();
         mesh.set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, vertices.len())
@@ -90,13 +106,17 @@ impl Embree {
         mesh.set_new_buffer::<[u32; 3]>(BufferUsage::INDEX, 0, Format::UINT3, 12, indices.len())
             .expect("an index buffer")
             .copy_from_slice(&indices);
+        mesh.set_build_quality(BuildQuality::MEDIUM);
         let mesh = mesh.commit();
         let mut scene = device.create_scene().expect("a scene");
+        scene.set_build_quality(BuildQuality::MEDIUM);
+        scene.set_flags(if robust { SceneFlags::ROBUST } else { SceneFlags::NONE });
         scene.attach_geometry(&mesh);
         scene.commit();
         Self { scene, _device: device }
     }
 
+    /// The closest hit of `ray` through `rtcIntersect1`: its distance and triangle.
     pub fn closest(&self, ray: &Ray) -> Option<(f32, u32)> {
         let mut ctx = embree3::IntersectContext::incoherent();
         let mut hit = embree3::RayHit::from(Self::ray(ray));
@@ -104,17 +124,44 @@ impl Embree {
         hit.hit.is_valid().then_some((hit.ray.tfar, hit.hit.primID))
     }
 
+    /// Whether `ray` is occluded, through `rtcOccluded1`.
     pub fn occluded(&self, ray: &Ray) -> bool {
         let mut ctx = embree3::IntersectContext::incoherent();
         self.scene.occluded(&mut ctx, &mut Self::ray(ray))
     }
 
+    /// The closest hits of `rays` through Embree's packet query (`rtcIntersect8`), eight consecutive
+    /// rays per packet (a row of an 8x8 tile), the context flagged coherent; returns how many hit.
+    pub fn closest_packets(&self, rays: &[Ray]) -> usize {
+        let mut hits = 0;
+        for run in rays.chunks(8) {
+            let mut ctx = embree3::IntersectContext::coherent();
+            let mut packet = embree3::RayHit8 { ray: Self::ray8(run), hit: embree3::Hit8::new() };
+            self.scene.intersect8(&mut ctx, &mut packet, &Self::valid8(run.len()).0);
+            hits += packet.hit.geomID[..run.len()].iter().filter(|&&g| g != embree3::INVALID_ID).count();
+        }
+        hits
+    }
+
+    /// Occlusion of `rays` through `rtcOccluded8`, eight consecutive rays per packet, the context
+    /// flagged coherent; returns how many are occluded (Embree sets an occluded ray's `tfar` to -inf).
+    pub fn occluded_packets(&self, rays: &[Ray]) -> usize {
+        let mut occluded = 0;
+        for run in rays.chunks(8) {
+            let mut ctx = embree3::IntersectContext::coherent();
+            let mut packet = Self::ray8(run);
+            self.scene.occluded8(&mut ctx, &mut packet, &Self::valid8(run.len()).0);
+            occluded += packet.tfar[..run.len()].iter().filter(|&&t| t == f32::NEG_INFINITY).count();
+        }
+        occluded
+    }
+
     /// The closest hits of `rays` through Embree's stream query (`rtcIntersect1M`) in runs of 64,
     /// flagged coherent or not; returns how many hit.
     pub fn closest_stream(&self, rays: &[Ray], coherent: bool, buffer: &mut Vec<embree3::RayHit>) -> usize {
-        let mut ctx = Self::context(coherent);
         let mut hits = 0;
         for run in rays.chunks(64) {
+            let mut ctx = Self::context(coherent);
             buffer.clear();
             buffer.extend(run.iter().map(|r| embree3::RayHit::from(Self::ray(r))));
             self.scene.intersect_stream_aos(&mut ctx, buffer);
@@ -126,9 +173,9 @@ impl Embree {
     /// Occlusion of `rays` through Embree's stream query (`rtcOccluded1M`) in runs of 64; returns how
     /// many are occluded (Embree sets an occluded ray's `tfar` to -inf).
     pub fn occluded_stream(&self, rays: &[Ray], coherent: bool, buffer: &mut Vec<embree3::Ray>) -> usize {
-        let mut ctx = Self::context(coherent);
         let mut occluded = 0;
         for run in rays.chunks(64) {
+            let mut ctx = Self::context(coherent);
             buffer.clear();
             buffer.extend(run.iter().map(Self::ray));
             self.scene.occluded_stream_aos(&mut ctx, buffer);
@@ -143,5 +190,21 @@ impl Embree {
 
     fn ray(r: &Ray) -> embree3::Ray {
         embree3::Ray::segment(r.origin.to_array(), r.dir.to_array(), 0.0, f32::INFINITY)
+    }
+
+    /// Up to eight rays as a packet; missing lanes repeat the first ray (and are masked off).
+    fn ray8(run: &[Ray]) -> embree3::Ray8 {
+        let lane = |i: usize| run.get(i).unwrap_or(&run[0]);
+        embree3::Ray8::new(
+            std::array::from_fn(|i| lane(i).origin.to_array()),
+            std::array::from_fn(|i| lane(i).dir.to_array()),
+        )
+    }
+
+    fn valid8(lanes: usize) -> Valid8 {
+        use embree3::ValidMask;
+        Valid8(embree3::ValidMaskN::new(std::array::from_fn(|i| {
+            if i < lanes { ValidMask::Valid } else { ValidMask::Invalid }
+        })))
     }
 }
