@@ -220,11 +220,13 @@ impl Film {
 
     /// 8-bit RGB as the course writes it: `min(255, floor(c * 255.99))` of the colour clamped to [0, 1].
     pub fn to_rgb8(&self) -> Vec<u8> {
-        self.pixels
-            .iter()
-            .flat_map(|c| c.to_array())
-            .map(|c| (c.clamp(0.0, 1.0) * 255.99).floor().min(255.0) as u8)
-            .collect()
+        let mut out = Vec::with_capacity(self.pixels.len() * 3);
+        for c in &self.pixels {
+            // The product is in [0, 255.99], or NaN, which `min` takes to 255; `as` truncates, which
+            // is the floor here.
+            out.extend(c.to_array().map(|c| (c.clamp(0.0, 1.0) * 255.99).min(255.0) as u8));
+        }
+        out
     }
 
     /// Writes the image in the format its extension names (`.png`: 8-bit; `.exr`, `.pfm`: linear
@@ -486,6 +488,24 @@ fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn eight_bit_values_are_the_course_formula() {
+        let course = |c: f32| (c.clamp(0.0, 1.0) * 255.99).floor().min(255.0) as u8;
+        // Every f32 in [0, 1] near a step of the formula, then the values outside it.
+        let mut values: Vec<f32> = (0..=256)
+            .flat_map(|k| {
+                let edge = k as f32 / 255.99;
+                (-64..=64).map(move |ulps: i32| f32::from_bits((edge.to_bits() as i32 + ulps).max(0) as u32))
+            })
+            .collect();
+        values.extend([-0.0, -1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE, 1e-45]);
+        let film = Film::from_pixels(values.len() as u32, 1, values.iter().map(|&c| Vec3::splat(c)).collect());
+        let expected: Vec<u8> = values.iter().flat_map(|&c| [course(c); 3]).collect();
+        let ours = film.to_rgb8();
+        let wrong = (0..expected.len()).find(|&i| ours[i] != expected[i]);
+        assert!(wrong.is_none(), "{:?}", wrong.map(|i| (values[i / 3], ours[i], expected[i])));
+    }
 
     #[test]
     fn a_window_is_written_as_the_data_and_display_windows() {

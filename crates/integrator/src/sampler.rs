@@ -80,29 +80,42 @@ impl Jittered {
     }
 }
 
-/// Random numbers of one sample, seeded by (seed, pixel, index).
+/// Random numbers of one sample, seeded by (seed, pixel, index). The generator is seeded at the first
+/// number drawn, and the per-pixel scramble formed at each permutation: a sample that draws nothing (a
+/// pixel centre without area lights or rough mirrors) costs no hashing.
 #[derive(Clone, Debug)]
 pub struct Source {
-    rng: Pcg32,
-    /// Stratum of the sample and strata per side (1 for unstratified samplers).
+    rng: Option<Pcg32>,
+    seed: u64,
+    /// The pixel, `y` in the high half.
+    pixel: u64,
+    /// The sample's index (its generator's seed) and its stratum, with the strata per side (1 for
+    /// unstratified samplers).
+    index: u32,
     stratum: u32,
     n: u32,
-    /// Per-pixel scrambles for the lens and time permutations.
-    scramble: u32,
     centre: bool,
 }
 
 impl Source {
     fn new(seed: u64, x: u32, y: u32, index: u32, n: u32, centre: bool) -> Self {
         let pixel = ((y as u64) << 32) | x as u64;
-        let key = splitmix(seed ^ splitmix(pixel ^ splitmix(index as u64 + 1)));
-        let pixel_key = splitmix(seed ^ splitmix(pixel)) as u32;
-        Self { rng: Pcg32::new(key, 0x0a02_bdbf_7bb3_c0a7), stratum: index, n, scramble: pixel_key, centre }
+        Self { rng: None, seed, pixel, index, stratum: index, n, centre }
+    }
+
+    /// The per-pixel scramble of the lens, light and time permutations.
+    #[inline]
+    fn scramble(&self) -> u32 {
+        splitmix(self.seed ^ splitmix(self.pixel)) as u32
     }
 
     #[inline]
     fn u(&mut self) -> f32 {
-        (self.rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+        let (seed, pixel, index) = (self.seed, self.pixel, self.index);
+        let rng = self.rng.get_or_insert_with(|| {
+            Pcg32::new(splitmix(seed ^ splitmix(pixel ^ splitmix(index as u64 + 1))), 0x0a02_bdbf_7bb3_c0a7)
+        });
+        (rng.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
     }
 
     #[inline]
@@ -128,20 +141,20 @@ impl SampleSource for Source {
         // One light stratum per pixel stratum, through a per-pixel random permutation: the identity
         // (the course's tie) would only integrate the diagonal blocks of pixel x light and bias the
         // penumbra; a permutation keeps both stratified and the estimate unbiased.
-        let s = permute(self.stratum, self.n * self.n, self.scramble ^ 0x68e3_1da4);
+        let s = permute(self.stratum, self.n * self.n, self.scramble() ^ 0x68e3_1da4);
         self.stratified(s)
     }
 
     #[inline]
     fn lens(&mut self) -> Vec2 {
-        let s = permute(self.stratum, self.n * self.n, self.scramble ^ 0x51ed_270b);
+        let s = permute(self.stratum, self.n * self.n, self.scramble() ^ 0x51ed_270b);
         self.stratified(s)
     }
 
     #[inline]
     fn time(&mut self) -> f32 {
         let count = self.n * self.n;
-        let s = permute(self.stratum, count, self.scramble ^ 0x2545_f491);
+        let s = permute(self.stratum, count, self.scramble() ^ 0x2545_f491);
         (s as f32 + self.u()) / count as f32
     }
 

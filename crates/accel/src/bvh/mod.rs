@@ -41,6 +41,10 @@ use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, oc
 
 /// Largest leaf of primitives other than triangles.
 const MAX_LEAF: usize = 4;
+/// Largest leaf of primitives other than triangles that the SAH build makes: one, so that each shape's
+/// own box, tested four at a time with its siblings', stands before its exact test, which costs many box
+/// tests (a sphere's is in f64).
+const SAH_LEAF: usize = 1;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
@@ -134,7 +138,7 @@ impl<P: Intersect + Clone> Bvh<P> {
         let triangles =
             (!tri_items.is_empty()).then(|| Triangles::build(&mut tri_items, &tris, method, kernel, prefetch_bytes));
         let others = (!items.is_empty()).then(|| {
-            let bin = build_binary(&mut items, method, 1, MAX_LEAF);
+            let bin = build_binary(&mut items, method, 1, SAH_LEAF);
             let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
             let prims = ids.iter().map(|&i| prims[i as usize].clone()).collect();

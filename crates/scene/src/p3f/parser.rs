@@ -2,6 +2,7 @@
 //! numbers that follow it.
 
 use std::collections::BTreeSet;
+use std::fmt::Display;
 use std::path::Path;
 
 use raylume_camera::View;
@@ -88,7 +89,7 @@ impl<'a, 'f> Parser<'a, 'f> {
     }
 
     /// The next token, or an error naming what was expected at the end of the file.
-    fn token(&mut self, expected: &str) -> Result<Token<'a>, SceneError> {
+    fn token(&mut self, expected: impl Display) -> Result<Token<'a>, SceneError> {
         match self.lex.next() {
             Some(t) => Ok(t),
             None => {
@@ -98,12 +99,12 @@ impl<'a, 'f> Parser<'a, 'f> {
         }
     }
 
-    fn number(&mut self, what: &str) -> Result<f32, SceneError> {
-        let t = self.token(&format!("a number ({what})"))?;
+    fn number(&mut self, what: impl Display) -> Result<f32, SceneError> {
+        let t = self.token(format_args!("a number ({what})"))?;
         self.number_of(&t, what)
     }
 
-    fn number_of(&self, t: &Token, what: &str) -> Result<f32, SceneError> {
+    fn number_of(&self, t: &Token, what: impl Display) -> Result<f32, SceneError> {
         match t.text.parse::<f64>() {
             Ok(v) if v.is_finite() && (v as f32).is_finite() => Ok(v as f32),
             Ok(_) => Err(self.error(t, format!("expected a finite number ({what}), found '{}'", t.shown()))),
@@ -113,7 +114,7 @@ impl<'a, 'f> Parser<'a, 'f> {
 
     /// A number checked by `ok`, with `expected` in the message if it fails.
     fn number_where(&mut self, what: &str, expected: &str, ok: impl Fn(f32) -> bool) -> Result<f32, SceneError> {
-        let t = self.token(&format!("a number ({what})"))?;
+        let t = self.token(format_args!("a number ({what})"))?;
         let v = self.number_of(&t, what)?;
         if !ok(v) {
             return Err(self.error(&t, format!("expected {expected}, found '{}'", t.shown())));
@@ -121,23 +122,23 @@ impl<'a, 'f> Parser<'a, 'f> {
         Ok(v)
     }
 
-    fn vec3(&mut self, what: &str) -> Result<Vec3A, SceneError> {
-        let x = self.number(&format!("{what} x"))?;
-        let y = self.number(&format!("{what} y"))?;
-        let z = self.number(&format!("{what} z"))?;
+    fn vec3(&mut self, what: impl Display) -> Result<Vec3A, SceneError> {
+        let x = self.number(format_args!("{what} x"))?;
+        let y = self.number(format_args!("{what} y"))?;
+        let z = self.number(format_args!("{what} z"))?;
         Ok(Vec3A::new(x, y, z))
     }
 
-    fn color(&mut self, what: &str) -> Result<Vec3, SceneError> {
-        let r = self.number(&format!("{what} r"))?;
-        let g = self.number(&format!("{what} g"))?;
-        let b = self.number(&format!("{what} b"))?;
+    fn color(&mut self, what: impl Display) -> Result<Vec3, SceneError> {
+        let r = self.number(format_args!("{what} r"))?;
+        let g = self.number(format_args!("{what} g"))?;
+        let b = self.number(format_args!("{what} b"))?;
         Ok(Vec3::new(r, g, b))
     }
 
     /// A whole number in `min..=max`.
-    fn integer(&mut self, what: &str, min: i64, max: i64) -> Result<i64, SceneError> {
-        let t = self.token(&format!("an integer ({what})"))?;
+    fn integer(&mut self, what: impl Display, min: i64, max: i64) -> Result<i64, SceneError> {
+        let t = self.token(format_args!("an integer ({what})"))?;
         match t.text.parse::<i64>() {
             Ok(v) if (min..=max).contains(&v) => Ok(v),
             Ok(_) => Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.shown()))),
@@ -264,7 +265,7 @@ impl<'a, 'f> Parser<'a, 'f> {
                 let n = self.count("polygon vertex count", 3, 3)?;
                 let mut v = Vec::with_capacity(n);
                 for i in 0..n {
-                    v.push(self.vec3(&format!("polygon vertex {}", i + 1))?);
+                    v.push(self.vec3(format_args!("polygon vertex {}", i + 1))?);
                 }
                 Entity::Object(Shape::Polygon(v))
             }
@@ -272,8 +273,8 @@ impl<'a, 'f> Parser<'a, 'f> {
                 let n = self.count("patch vertex count", 3, 6)?;
                 let mut v = Vec::with_capacity(n);
                 for i in 0..n {
-                    let p = self.vec3(&format!("patch vertex {}", i + 1))?;
-                    let nrm = self.vec3(&format!("patch normal {}", i + 1))?;
+                    let p = self.vec3(format_args!("patch vertex {}", i + 1))?;
+                    let nrm = self.vec3(format_args!("patch normal {}", i + 1))?;
                     v.push((p, nrm));
                 }
                 Entity::Object(Shape::Patch(v))
@@ -646,7 +647,7 @@ impl<'a, 'f> Parser<'a, 'f> {
         }
         let mut vertices = Vec::with_capacity(nv);
         for i in 0..nv {
-            vertices.push(self.vec3(&format!("mesh vertex {}", i + 1))?);
+            vertices.push(self.vec3(format_args!("mesh vertex {}", i + 1))?);
         }
         let mut triangles = Vec::with_capacity(nf);
         for f in 0..nf {
