@@ -3,7 +3,7 @@
 (docs/PERFORMANCE.md, "Where a render's time goes").
 
     valgrind --tool=callgrind --callgrind-out-file=F raylume render SCENE --threads 1 ...
-    python3 docs/render_phases.py F [F ...]
+    python3 tools/render_phases.py F [F ...]
 
 A phase made of whole functions counts their inclusive cost (each call edge's cost as callgrind
 records it); the render loop's own functions, whose callees are mostly inlined, count each line of
