@@ -3,11 +3,10 @@ use std::path::Path;
 use raylume_geometry::Vec3;
 use raylume_integrator::{Cubemap, CubemapFace};
 use raylume_scene::{SceneError, cubemap_faces};
-use rayon::prelude::*;
 
 /// Finds the cubemap folder `name` in the first of `search_dirs` that holds it
 /// ([`raylume_scene::find_cubemap`]) and decodes its six faces (`right left top bottom front back`,
-/// `.jpg` or `.png`) to linear colours in [0, 1], the faces in parallel on rayon's current pool.
+/// `.jpg` or `.png`) to linear colours in [0, 1].
 ///
 /// ```
 /// let err = raylume_render::load_cubemap("no such cubemap", &[std::env::temp_dir()]).unwrap_err();
@@ -16,12 +15,9 @@ use rayon::prelude::*;
 pub fn load_cubemap(name: &str, search_dirs: &[impl AsRef<Path>]) -> Result<Cubemap, SceneError> {
     let err = |message: String| SceneError::Environment { name: name.to_owned(), message };
     let (_, paths) = cubemap_faces(name, search_dirs).map_err(err)?;
-    // The faces are decoded side by side (on rayon's current pool); the first face that fails, in
-    // face order, is the one reported.
-    let decoded: Vec<_> = paths.par_iter().map(|path| load_face(path)).collect();
     let mut faces = Vec::with_capacity(6);
-    for (path, face) in paths.iter().zip(decoded) {
-        faces.push(face.map_err(|e| err(format!("{}: {e}", path.display())))?);
+    for path in &paths {
+        faces.push(load_face(path).map_err(|e| err(format!("{}: {e}", path.display())))?);
     }
     let faces: [CubemapFace; 6] = faces.try_into().expect("six faces");
     Ok(Cubemap { faces })
