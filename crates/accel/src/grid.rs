@@ -59,7 +59,7 @@ const MAX_LARGE: usize = 8;
 /// How much smaller in volume the box of the other primitives must be for them to be taken out.
 const LARGE_SHRINK: f64 = 8.0;
 /// Mailbox slots per ray (direct-mapped by primitive index).
-const MAILBOX: usize = 32;
+const MAILBOX: usize = 16;
 
 /// A uniform grid over bounded primitives; unbounded ones (planes), and the few primitives as large as
 /// the scene (a floor under a model, see `large_primitives`), are tested directly by every ray.
@@ -76,8 +76,8 @@ const MAILBOX: usize = 32;
 pub struct Grid<P> {
     prims: Vec<P>,
     /// The primitives every ray tests before its walk (unbounded ones and [`large_primitives`]): the
-    /// triangles with their primitive index, and the indices of the others.
-    direct_triangles: Vec<(Triangle, u32)>,
+    /// triangles in packets, and the indices of the others.
+    direct_triangles: Vec<Packet>,
     direct_others: Vec<u32>,
     bounds: Aabb,
     cells: [usize; 3],
@@ -93,6 +93,8 @@ pub struct Grid<P> {
     starts: Vec<[u32; 2]>,
     /// The cells' triangles, in cell order, each packet with the primitive indices of its triangles.
     packets: Vec<Packet>,
+    /// The mask of the lanes of each of `packets` that hold a triangle.
+    used: Vec<u8>,
     /// The indices of the cells' other primitives, in cell order.
     others: Vec<u32>,
     /// The number of cell entries (a primitive in each of its cells).
@@ -251,6 +253,7 @@ impl<P: Intersect> Grid<P> {
                 None => direct_others.push(i),
             }
         }
+        let direct_triangles = direct_triangles.chunks(LANES).map(|c| Packet::new(c.iter().copied())).collect();
         let mut grid = Self {
             prims,
             direct_triangles,
@@ -263,6 +266,7 @@ impl<P: Intersect> Grid<P> {
             inv_cell_size,
             starts: Vec::new(),
             packets: Vec::new(),
+            used: Vec::new(),
             others: Vec::new(),
             entries: 0,
             mailbox: params.mailbox,
@@ -308,6 +312,7 @@ impl<P: Intersect> Grid<P> {
         starts.push([packets.len() as u32, others.len() as u32]);
         assert!(packets.len() <= u32::MAX as usize && others.len() <= u32::MAX as usize);
         grid.starts = starts;
+        grid.used = packets.iter().map(|p| p.used() as u8).collect();
         grid.packets = packets;
         grid.others = others;
         grid.entries = acc as usize;
@@ -361,12 +366,13 @@ impl<P: Intersect> Grid<P> {
     }
 
     /// Walks the cells the ray crosses within `[t_min, t_max]`, nearest first, calling `visit` with the
-    /// packets and the other primitives of each cell that has some; `visit` returns the end of the ray's range so far (the
+    /// packets (with the masks of their lanes in use) and the other primitives of each cell that has
+    /// some; `visit` returns the end of the ray's range so far (the
     /// closest hit's distance, or minus infinity to stop), and the walk stops at the first cell that
     /// starts at or beyond it. In f64: the cells are those the ray's exact line crosses, wherever its
     /// origin is. Returns the number of cells walked.
     #[inline]
-    fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[Packet], &[u32]) -> f32) -> u32 {
+    fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[Packet], &[u8], &[u32]) -> f32) -> u32 {
         // Written out per axis: array maps and loops over axes here are left as calls and loops.
         let (o, d) = (ray.origin, ray.dir);
         let (o, d) = ([o.x as f64, o.y as f64, o.z as f64], [d.x as f64, d.y as f64, d.z as f64]);
@@ -394,8 +400,9 @@ impl<P: Intersect> Grid<P> {
             walked += 1;
             let (first, last) = (self.starts[index], self.starts[index + 1]);
             if first != last {
-                let packets = &self.packets[first[0] as usize..last[0] as usize];
-                end = visit(packets, &self.others[first[1] as usize..last[1] as usize]) as f64;
+                let packets = first[0] as usize..last[0] as usize;
+                let others = &self.others[first[1] as usize..last[1] as usize];
+                end = visit(&self.packets[packets.clone()], &self.used[packets], others) as f64;
             }
             let axis = if next[0] < next[1] {
                 if next[0] < next[2] { 0 } else { 2 }
@@ -497,9 +504,11 @@ impl<P: Intersect> Grid<P> {
         let sheared = sheared.as_ref();
         let mut found = Closest { triangle: None, other: None };
         if let Some(sheared) = sheared {
-            for (tri, id) in &self.direct_triangles {
-                tally.tested();
-                found.triangle(tri, *id, sheared, &mut t_range);
+            for packet in &self.direct_triangles {
+                for lane in lanes(candidates(packet, sheared, LANES) & packet.used()) {
+                    tally.tested();
+                    found.triangle(&packet.triangle(lane), packet.id(lane), sheared, &mut t_range);
+                }
             }
         }
         for &id in &self.direct_others {
@@ -507,10 +516,10 @@ impl<P: Intersect> Grid<P> {
             self.closest_other(id, ray, &mut t_range, &mut found);
         }
         let mut mailbox = Mailbox::new(self.mailbox);
-        let walked = self.walk(ray, t_range.min, t_range.max, |packets, others| {
+        let walked = self.walk(ray, t_range.min, t_range.max, |packets, used, others| {
             if let Some(sheared) = sheared {
-                for packet in packets {
-                    for lane in lanes(candidates(packet, sheared, LANES) & packet.used()) {
+                for (packet, &used) in packets.iter().zip(used) {
+                    for lane in lanes(candidates(packet, sheared, LANES) & used as u32) {
                         let id = packet.id(lane);
                         if mailbox.first_visit(id) {
                             tally.tested();
@@ -542,10 +551,12 @@ impl<P: Intersect> Grid<P> {
         let sheared = sheared.as_ref();
         let range = Interval::new(0.0, t_max);
         if let Some(sheared) = sheared {
-            for (tri, _) in &self.direct_triangles {
-                tally.tested();
-                if watertight_hits(tri, sheared, range) {
-                    return true;
+            for packet in &self.direct_triangles {
+                for lane in lanes(candidates(packet, sheared, LANES) & packet.used()) {
+                    tally.tested();
+                    if watertight_hits(&packet.triangle(lane), sheared, range) {
+                        return true;
+                    }
                 }
             }
         }
@@ -557,10 +568,10 @@ impl<P: Intersect> Grid<P> {
         }
         let mut mailbox = Mailbox::new(self.mailbox);
         let mut hit = false;
-        let walked = self.walk(ray, 0.0, t_max, |packets, others| {
+        let walked = self.walk(ray, 0.0, t_max, |packets, used, others| {
             if let Some(sheared) = sheared {
-                for packet in packets {
-                    for lane in lanes(candidates(packet, sheared, LANES) & packet.used()) {
+                for (packet, &used) in packets.iter().zip(used) {
+                    for lane in lanes(candidates(packet, sheared, LANES) & used as u32) {
                         let id = packet.id(lane);
                         if mailbox.first_visit(id) {
                             tally.tested();
@@ -605,6 +616,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
         let bytes = std::mem::size_of_val(self.prims.as_slice())
             + std::mem::size_of_val(self.starts.as_slice())
             + std::mem::size_of_val(self.packets.as_slice())
+            + std::mem::size_of_val(self.used.as_slice())
             + std::mem::size_of_val(self.others.as_slice())
             + std::mem::size_of_val(self.direct_triangles.as_slice())
             + std::mem::size_of_val(self.direct_others.as_slice());
