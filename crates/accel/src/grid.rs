@@ -76,8 +76,8 @@ const MAILBOX: usize = 16;
 pub struct Grid<P> {
     prims: Vec<P>,
     /// The primitives every ray tests before its walk (unbounded ones and [`large_primitives`]): the
-    /// triangles in packets, and the indices of the others.
-    direct_triangles: Vec<Packet>,
+    /// triangles with their primitive index, and the indices of the others.
+    direct_triangles: Vec<(Triangle, u32)>,
     direct_others: Vec<u32>,
     bounds: Aabb,
     cells: [usize; 3],
@@ -253,7 +253,6 @@ impl<P: Intersect> Grid<P> {
                 None => direct_others.push(i),
             }
         }
-        let direct_triangles = direct_triangles.chunks(LANES).map(|c| Packet::new(c.iter().copied())).collect();
         let mut grid = Self {
             prims,
             direct_triangles,
@@ -504,11 +503,9 @@ impl<P: Intersect> Grid<P> {
         let sheared = sheared.as_ref();
         let mut found = Closest { triangle: None, other: None };
         if let Some(sheared) = sheared {
-            for packet in &self.direct_triangles {
-                for lane in lanes(candidates(packet, sheared, LANES) & packet.used()) {
-                    tally.tested();
-                    found.triangle(&packet.triangle(lane), packet.id(lane), sheared, &mut t_range);
-                }
+            for (tri, id) in &self.direct_triangles {
+                tally.tested();
+                found.triangle(tri, *id, sheared, &mut t_range);
             }
         }
         for &id in &self.direct_others {
@@ -551,12 +548,10 @@ impl<P: Intersect> Grid<P> {
         let sheared = sheared.as_ref();
         let range = Interval::new(0.0, t_max);
         if let Some(sheared) = sheared {
-            for packet in &self.direct_triangles {
-                for lane in lanes(candidates(packet, sheared, LANES) & packet.used()) {
-                    tally.tested();
-                    if watertight_hits(&packet.triangle(lane), sheared, range) {
-                        return true;
-                    }
+            for (tri, _) in &self.direct_triangles {
+                tally.tested();
+                if watertight_hits(tri, sheared, range) {
+                    return true;
                 }
             }
         }
