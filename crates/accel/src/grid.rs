@@ -59,7 +59,7 @@ const MAX_LARGE: usize = 8;
 /// How much smaller in volume the box of the other primitives must be for them to be taken out.
 const LARGE_SHRINK: f64 = 8.0;
 /// Mailbox slots per ray (direct-mapped by primitive index).
-const MAILBOX: usize = 16;
+const MAILBOX: usize = 32;
 
 /// A uniform grid over bounded primitives; unbounded ones (planes), and the few primitives as large as
 /// the scene (a floor under a model, see `large_primitives`), are tested directly by every ray.
@@ -399,9 +399,15 @@ impl<P: Intersect> Grid<P> {
             walked += 1;
             let (first, last) = (self.starts[index], self.starts[index + 1]);
             if first != last {
-                let packets = first[0] as usize..last[0] as usize;
                 let others = &self.others[first[1] as usize..last[1] as usize];
-                end = visit(&self.packets[packets.clone()], &self.used[packets], others) as f64;
+                // Cells of shapes other than triangles skip the packets' slicing.
+                let (packets, used) = if first[0] == last[0] {
+                    (&[][..], &[][..])
+                } else {
+                    let packets = first[0] as usize..last[0] as usize;
+                    (&self.packets[packets.clone()], &self.used[packets])
+                };
+                end = visit(packets, used, others) as f64;
             }
             let axis = if next[0] < next[1] {
                 if next[0] < next[2] { 0 } else { 2 }
