@@ -245,7 +245,8 @@ impl<P: Intersect> Grid<P> {
             per_unit *= 0.8;
         };
         let [corner, cell_size, inv_cell_size] = lattice(bounds, cells);
-        assert!(prims.len() <= u32::MAX as usize, "a grid holds at most 2^32 primitives");
+        // u32::MAX marks an empty lane of a packet and an empty mailbox slot.
+        assert!(prims.len() < u32::MAX as usize, "a grid holds fewer than 2^32 - 1 primitives");
         let (mut direct_triangles, mut direct_others) = (Vec::new(), Vec::new());
         for &i in &direct_ids {
             match prims[i as usize].as_triangle() {
@@ -366,9 +367,8 @@ impl<P: Intersect> Grid<P> {
 
     /// Walks the cells the ray crosses within `[t_min, t_max]`, nearest first, calling `visit` with the
     /// packets (with the masks of their lanes in use) and the other primitives of each cell that has
-    /// some; `visit` returns the end of the ray's range so far (the
-    /// closest hit's distance, or minus infinity to stop), and the walk stops at the first cell that
-    /// starts at or beyond it. In f64: the cells are those the ray's exact line crosses, wherever its
+    /// some; `visit` returns the end of the ray's range so far (the closest hit's distance, or minus
+    /// infinity to stop), and the walk stops at the first cell that starts at or beyond it. In f64: the cells are those the ray's exact line crosses, wherever its
     /// origin is. Returns the number of cells walked.
     #[inline]
     fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[Packet], &[u8], &[u32]) -> f32) -> u32 {
