@@ -3,6 +3,7 @@
 use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec3A};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit, watertight_decide, watertight_hits};
 
+use crate::bvh::triangles::{LANES, Packet, candidates};
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
 /// How a [`Grid`] is sized.
@@ -52,9 +53,6 @@ const MAX_CELLS: u64 = 1 << 25;
 /// much that they would take more is built coarser, so its size stays bounded by its input's.
 const ENTRIES_PER_PRIMITIVE: u64 = 64;
 const MIN_ENTRY_BUDGET: u64 = 1 << 24;
-/// The flag of an item (an entry of a cell or of the direct list) that is a triangle: `TRIANGLE | j`
-/// is `triangles[j]`, any other item `i` is `prims[i]`.
-const TRIANGLE: u32 = 1 << 31;
 
 /// Most primitives [`large_primitives`] takes out of the grid.
 const MAX_LARGE: usize = 8;
@@ -66,15 +64,21 @@ const MAILBOX: usize = 32;
 /// A uniform grid over bounded primitives; unbounded ones (planes), and the few primitives as large as
 /// the scene (a floor under a model, see `large_primitives`), are tested directly by every ray.
 ///
+/// Each cell holds its triangles in packets of four, which a ray filters four at a time without
+/// branches ([`candidates`], the BVH's leaf filter), and its other primitives as a list of indices.
+/// The exact test runs on the candidates and the other primitives only.
+///
 /// The course's mailbox (a ray id stored in each primitive) is not safe when several threads trace
 /// at once. raylume's mailbox lives in the ray's traversal instead: a small direct-mapped table of the
-/// last primitives tested, on the stack, so it needs no lock and no shared state. A primitive evicted
-/// from it may be tested twice, which costs time but never changes the answer.
+/// last primitives given the exact test, on the stack, so it needs no lock and no shared state. A
+/// primitive evicted from it may be tested twice, which costs time but never changes the answer.
 #[derive(Clone, Debug)]
 pub struct Grid<P> {
     prims: Vec<P>,
-    /// The primitives every ray tests before its walk: unbounded ones and [`large_primitives`].
-    direct: Vec<u32>,
+    /// The primitives every ray tests before its walk (unbounded ones and [`large_primitives`]): the
+    /// triangles with their primitive index, and the indices of the others.
+    direct_triangles: Vec<(Triangle, u32)>,
+    direct_others: Vec<u32>,
     bounds: Aabb,
     cells: [usize; 3],
     /// The lattice in f64: its corner, cell size and the size's reciprocal. Cells are entered and walked
@@ -84,15 +88,17 @@ pub struct Grid<P> {
     /// The far corner of the box in f64.
     upper: [f64; 3],
     inv_cell_size: [f64; 3],
-    /// `cell_start[c]..cell_start[c + 1]` indexes `items` for cell `c`.
-    cell_start: Vec<u32>,
-    /// The cells' [items](Item), in cell order.
-    items: Vec<u32>,
-    /// The triangles among `prims`, which the queries test with one [`ShearedRay`] per ray and whose
-    /// full hit they build for the closest only; `triangle_ids[j]` is the primitive index of
-    /// `triangles[j]`.
-    triangles: Vec<Triangle>,
-    triangle_ids: Vec<u32>,
+    /// `starts[c]` and `starts[c + 1]` bound cell `c`'s packets (`[0]`, in `packets`) and its other
+    /// primitives (`[1]`, in `others`).
+    starts: Vec<[u32; 2]>,
+    /// The cells' triangles, in cell order, each packet with the primitive indices of its triangles.
+    packets: Vec<Packet>,
+    /// The mask of the lanes of each of `packets` that hold a triangle.
+    used: Vec<u8>,
+    /// The indices of the cells' other primitives, in cell order.
+    others: Vec<u32>,
+    /// The number of cell entries (a primitive in each of its cells).
+    entries: usize,
     mailbox: bool,
 }
 
@@ -110,15 +116,16 @@ fn coord(x: f64, a: usize, corner: &[f64; 3], inv: &[f64; 3], cells: &[usize; 3]
     (((x - corner[a]) * inv[a]).max(0.0) as u32 as usize).min(cells[a] - 1)
 }
 
-/// The part of a ray's line (origin `o`, direction `d` along one axis) within `[lo, hi]` on that
-/// axis: `(near, far)`, empty (near beyond far) where a ray parallel to the axis's planes is outside.
+/// The part of a ray's line (origin `o`, direction `d` along one axis, `inv` its reciprocal) within
+/// `[lo, hi]` on that axis: `(near, far)`, empty (near beyond far) where a ray parallel to the axis's
+/// planes is outside.
 #[inline(always)]
-fn slab(lo: f64, hi: f64, o: f64, d: f64) -> (f64, f64) {
+fn slab(lo: f64, hi: f64, o: f64, d: f64, inv: f64) -> (f64, f64) {
     if d == 0.0 {
         if o < lo || o > hi { (f64::INFINITY, f64::NEG_INFINITY) } else { (f64::NEG_INFINITY, f64::INFINITY) }
     } else {
-        let (ta, tb) = ((lo - o) / d, (hi - o) / d);
-        if d > 0.0 { (ta, tb) } else { (tb, ta) }
+        let (ta, tb) = ((lo - o) * inv, (hi - o) * inv);
+        (min(ta, tb), max(ta, tb))
     }
 }
 
@@ -238,37 +245,33 @@ impl<P: Intersect> Grid<P> {
             per_unit *= 0.8;
         };
         let [corner, cell_size, inv_cell_size] = lattice(bounds, cells);
-        assert!(prims.len() < TRIANGLE as usize, "a grid holds fewer than 2^31 primitives");
-        let (mut triangles, mut triangle_ids) = (Vec::new(), Vec::new());
-        let item: Vec<u32> = prims
-            .iter()
-            .enumerate()
-            .map(|(i, p)| match p.as_triangle() {
-                Some(t) => {
-                    triangles.push(t);
-                    triangle_ids.push(i as u32);
-                    TRIANGLE | (triangles.len() - 1) as u32
-                }
-                None => i as u32,
-            })
-            .collect();
-        let direct = direct_ids.iter().map(|&i| item[i as usize]).collect();
+        // u32::MAX marks an empty lane of a packet and an empty mailbox slot.
+        assert!(prims.len() < u32::MAX as usize, "a grid holds fewer than 2^32 - 1 primitives");
+        let (mut direct_triangles, mut direct_others) = (Vec::new(), Vec::new());
+        for &i in &direct_ids {
+            match prims[i as usize].as_triangle() {
+                Some(t) => direct_triangles.push((t, i)),
+                None => direct_others.push(i),
+            }
+        }
         let mut grid = Self {
             prims,
-            direct,
+            direct_triangles,
+            direct_others,
             bounds,
             cells,
             corner,
             cell_size,
             upper: bounds.max.to_array().map(f64::from),
             inv_cell_size,
-            cell_start: Vec::new(),
-            items: Vec::new(),
-            triangles,
-            triangle_ids,
+            starts: Vec::new(),
+            packets: Vec::new(),
+            used: Vec::new(),
+            others: Vec::new(),
+            entries: 0,
             mailbox: params.mailbox,
         };
-        // Two passes: count the entries of each cell, then fill them (compressed rows).
+        // Two passes: count the entries of each cell, then fill them (compressed rows), in primitive order.
         let n_cells = cells[0] * cells[1] * cells[2];
         let mut counts = vec![0u32; n_cells + 1];
         for b in prim_bounds.iter().filter(|b| b.is_finite() && !b.is_empty()) {
@@ -286,19 +289,39 @@ impl<P: Intersect> Grid<P> {
         for (i, b) in prim_bounds.iter().enumerate() {
             if b.is_finite() && !b.is_empty() {
                 grid.for_cells(b, |c| {
-                    items[fill[c] as usize] = item[i];
+                    items[fill[c] as usize] = i as u32;
                     fill[c] += 1;
                 });
             }
         }
-        grid.cell_start = start;
-        grid.items = items;
+        // Each cell's triangles into packets, its other primitives into a list.
+        let mut starts = Vec::with_capacity(n_cells + 1);
+        let (mut packets, mut others) = (Vec::new(), Vec::new());
+        let mut triangles = Vec::new();
+        for c in 0..n_cells {
+            starts.push([packets.len() as u32, others.len() as u32]);
+            triangles.clear();
+            for &i in &items[start[c] as usize..start[c + 1] as usize] {
+                match grid.prims[i as usize].as_triangle() {
+                    Some(t) => triangles.push((t, i)),
+                    None => others.push(i),
+                }
+            }
+            packets.extend(triangles.chunks(LANES).map(|chunk| Packet::new(chunk.iter().copied())));
+        }
+        starts.push([packets.len() as u32, others.len() as u32]);
+        assert!(packets.len() <= u32::MAX as usize && others.len() <= u32::MAX as usize);
+        grid.starts = starts;
+        grid.used = packets.iter().map(|p| p.used() as u8).collect();
+        grid.packets = packets;
+        grid.others = others;
+        grid.entries = acc as usize;
         grid
     }
 
-    /// The number of cell entries, the length of its primitive lists.
+    /// The number of cell entries: each bounded primitive once in each of its cells.
     pub fn entries(&self) -> usize {
-        self.items.len()
+        self.entries
     }
 
     /// Cells per axis.
@@ -323,46 +346,47 @@ impl<P: Intersect> Grid<P> {
         }
     }
 
-    /// Where the walk of a ray with origin `o` and direction `d` along axis `a` starts, entering the grid
-    /// at `t0`.
+    /// Where the walk of a ray with origin `o` and direction `d` (`inv` its reciprocal) along axis `a`
+    /// starts, entering the grid at `t0`. Without branches on the direction's sign, which rays in
+    /// every direction would mispredict.
     #[inline(always)]
-    fn start(&self, a: usize, o: f64, d: f64, t0: f64) -> AxisStart {
+    fn start(&self, a: usize, o: f64, d: f64, inv: f64, t0: f64) -> AxisStart {
         let (corner, size, n) = (self.corner[a], self.cell_size[a], self.cells[a]);
         let cell = coord(o + d * t0, a, &self.corner, &self.inv_cell_size, &self.cells);
         let stride = [1, self.cells[0], self.cells[0] * self.cells[1]][a];
         // A zero component (0 or -0) never steps on that axis.
-        if d > 0.0 {
-            let next = (corner + (cell + 1) as f64 * size - o) / d;
-            AxisStart { cell, next, delta: size / d, stride, left: n - 1 - cell }
-        } else if d < 0.0 {
-            let next = (corner + cell as f64 * size - o) / d;
-            AxisStart { cell, next, delta: -size / d, stride: stride.wrapping_neg(), left: cell }
-        } else {
-            AxisStart { cell, next: f64::INFINITY, delta: f64::INFINITY, stride: 0, left: 0 }
+        if d == 0.0 {
+            return AxisStart { cell, next: f64::INFINITY, delta: f64::INFINITY, stride: 0, left: 0 };
         }
+        let up = d > 0.0;
+        // The plane the ray leaves the cell by: its far one going up, its near one going down.
+        let next = (corner + (cell + up as usize) as f64 * size - o) * inv;
+        let (stride, left) = if up { (stride, n - 1 - cell) } else { (stride.wrapping_neg(), cell) };
+        AxisStart { cell, next, delta: size * inv.abs(), stride, left }
     }
 
     /// Walks the cells the ray crosses within `[t_min, t_max]`, nearest first, calling `visit` with the
-    /// primitives of each cell that has some; `visit` returns the end of the ray's range so far (the
-    /// closest hit's distance, or minus infinity to stop), and the walk stops at the first cell that
-    /// starts at or beyond it. In f64: the cells are those the ray's exact line crosses, wherever its
+    /// packets (with the masks of their lanes in use) and the other primitives of each cell that has
+    /// some; `visit` returns the end of the ray's range so far (the closest hit's distance, or minus
+    /// infinity to stop), and the walk stops at the first cell that starts at or beyond it. In f64: the cells are those the ray's exact line crosses, wherever its
     /// origin is. Returns the number of cells walked.
     #[inline]
-    fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[u32]) -> f32) -> u32 {
+    fn walk(&self, ray: &Ray, t_min: f32, t_max: f32, mut visit: impl FnMut(&[Packet], &[u8], &[u32]) -> f32) -> u32 {
         // Written out per axis: array maps and loops over axes here are left as calls and loops.
         let (o, d) = (ray.origin, ray.dir);
         let (o, d) = ([o.x as f64, o.y as f64, o.z as f64], [d.x as f64, d.y as f64, d.z as f64]);
         // A NaN end leaves the range open on that side, to the grid's box.
         let t0 = if t_min.is_nan() { f64::NEG_INFINITY } else { t_min as f64 };
         let t1 = if t_max.is_nan() { f64::INFINITY } else { t_max as f64 };
-        let slab = |a: usize| slab(self.corner[a], self.upper[a], o[a], d[a]);
+        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        let slab = |a: usize| slab(self.corner[a], self.upper[a], o[a], d[a], inv[a]);
         let ((n0, f0), (n1, f1), (n2, f2)) = (slab(0), slab(1), slab(2));
         let t0 = max(max(t0, n0), max(n1, n2));
         let t1 = min(min(t1, f0), min(f1, f2));
         if t0 > t1 {
             return 0;
         }
-        let start = |a: usize| self.start(a, o[a], d[a], t0);
+        let start = |a: usize| self.start(a, o[a], d[a], inv[a], t0);
         let (s0, s1, s2) = (start(0), start(1), start(2));
         let mut index = s0.cell + s1.cell * self.cells[0] + s2.cell * self.cells[0] * self.cells[1];
         let mut next = [s0.next, s1.next, s2.next];
@@ -373,9 +397,17 @@ impl<P: Intersect> Grid<P> {
         let mut walked = 0;
         loop {
             walked += 1;
-            let (first, last) = (self.cell_start[index], self.cell_start[index + 1]);
+            let (first, last) = (self.starts[index], self.starts[index + 1]);
             if first != last {
-                end = visit(&self.items[first as usize..last as usize]) as f64;
+                let others = &self.others[first[1] as usize..last[1] as usize];
+                // Cells of shapes other than triangles skip the packets' slicing.
+                let (packets, used) = if first[0] == last[0] {
+                    (&[][..], &[][..])
+                } else {
+                    let packets = first[0] as usize..last[0] as usize;
+                    (&self.packets[packets.clone()], &self.used[packets])
+                };
+                end = visit(packets, used, others) as f64;
             }
             let axis = if next[0] < next[1] {
                 if next[0] < next[2] { 0 } else { 2 }
@@ -422,51 +454,51 @@ impl Mailbox {
     }
 }
 
-/// The closest hit of a query so far: of a triangle (kept as its decision, with the triangle's
-/// number) and of another primitive, each the closest of its kind; the range narrows to both.
+/// The closest hit of a query so far: of a triangle (kept as its decision, with the triangle and its
+/// primitive index) and of another primitive, each the closest of its kind; the range narrows to both.
 struct Closest {
-    triangle: Option<(TriangleHit, u32)>,
+    triangle: Option<(TriangleHit, Triangle, u32)>,
     other: Option<PrimitiveHit>,
 }
 
-impl<P: Intersect> Grid<P> {
-    /// Tests `item` for a closer hit than `found`'s within `t_range`, and narrows the range to it.
+impl Closest {
+    /// Decides triangle `tri` (primitive `id`) for a closer hit than the one found within `t_range`, and
+    /// narrows the range to it.
     #[inline(always)]
-    fn closest_item(
-        &self,
-        item: u32,
-        ray: &Ray,
-        sheared: Option<&ShearedRay>,
-        t_range: &mut Interval,
-        found: &mut Closest,
-    ) {
-        if item & TRIANGLE != 0 {
-            let j = item & !TRIANGLE;
-            let Some(sheared) = sheared else { return };
-            if let Some(h) = watertight_decide(&self.triangles[j as usize], sheared, *t_range) {
-                let wins = match found.triangle {
-                    Some((f, k)) if f.t == h.t => self.triangle_ids[j as usize] < self.triangle_ids[k as usize],
-                    _ => true,
-                };
-                if wins {
-                    *t_range = t_range.with_max(h.t);
-                    found.triangle = Some((h, j));
-                }
+    fn triangle(&mut self, tri: &Triangle, id: u32, sheared: &ShearedRay, t_range: &mut Interval) {
+        if let Some(h) = watertight_decide(tri, sheared, *t_range) {
+            let wins = match self.triangle {
+                Some((f, _, k)) if f.t == h.t => id < k,
+                _ => true,
+            };
+            if wins {
+                *t_range = t_range.with_max(h.t);
+                self.triangle = Some((h, *tri, id));
             }
-        } else if let Some(hit) = self.prims[item as usize].intersect_canonical(ray, *t_range) {
-            *t_range = t_range.with_max(hit.t);
-            found.other = PrimitiveHit::closer(found.other, PrimitiveHit { hit, primitive: item });
         }
     }
+}
 
-    /// Whether `item` is hit within `(0, t_max)`.
+/// The lanes of `mask`, lowest first.
+#[inline(always)]
+fn lanes(mut mask: u32) -> impl Iterator<Item = u32> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let lane = mask.trailing_zeros();
+            mask &= mask - 1;
+            lane
+        })
+    })
+}
+
+impl<P: Intersect> Grid<P> {
+    /// Tests other primitive `id` for a closer hit than `found`'s within `t_range`, and narrows the range
+    /// to it.
     #[inline(always)]
-    fn occludes(&self, item: u32, ray: &Ray, sheared: Option<&ShearedRay>, t_max: f32) -> bool {
-        if item & TRIANGLE != 0 {
-            let tri = &self.triangles[(item & !TRIANGLE) as usize];
-            sheared.is_some_and(|sheared| watertight_hits(tri, sheared, Interval::new(0.0, t_max)))
-        } else {
-            self.prims[item as usize].occluded_canonical(ray, t_max)
+    fn closest_other(&self, id: u32, ray: &Ray, t_range: &mut Interval, found: &mut Closest) {
+        if let Some(hit) = self.prims[id as usize].intersect_canonical(ray, *t_range) {
+            *t_range = t_range.with_max(hit.t);
+            found.other = PrimitiveHit::closer(found.other, PrimitiveHit { hit, primitive: id });
         }
     }
 
@@ -476,25 +508,39 @@ impl<P: Intersect> Grid<P> {
         let sheared = ShearedRay::new(ray);
         let sheared = sheared.as_ref();
         let mut found = Closest { triangle: None, other: None };
-        for &item in &self.direct {
+        if let Some(sheared) = sheared {
+            for (tri, id) in &self.direct_triangles {
+                tally.tested();
+                found.triangle(tri, *id, sheared, &mut t_range);
+            }
+        }
+        for &id in &self.direct_others {
             tally.tested();
-            self.closest_item(item, ray, sheared, &mut t_range, &mut found);
+            self.closest_other(id, ray, &mut t_range, &mut found);
         }
         let mut mailbox = Mailbox::new(self.mailbox);
-        let walked = self.walk(ray, t_range.min, t_range.max, |items| {
-            for &item in items {
-                if mailbox.first_visit(item) {
+        let walked = self.walk(ray, t_range.min, t_range.max, |packets, used, others| {
+            if let Some(sheared) = sheared {
+                for (packet, &used) in packets.iter().zip(used) {
+                    for lane in lanes(candidates(packet, sheared, LANES) & used as u32) {
+                        let id = packet.id(lane);
+                        if mailbox.first_visit(id) {
+                            tally.tested();
+                            found.triangle(&packet.triangle(lane), id, sheared, &mut t_range);
+                        }
+                    }
+                }
+            }
+            for &id in others {
+                if mailbox.first_visit(id) {
                     tally.tested();
-                    self.closest_item(item, ray, sheared, &mut t_range, &mut found);
+                    self.closest_other(id, ray, &mut t_range, &mut found);
                 }
             }
             t_range.max
         });
         (0..walked).for_each(|_| tally.visited());
-        let triangle = found.triangle.map(|(h, j)| PrimitiveHit {
-            hit: h.hit(&self.triangles[j as usize]),
-            primitive: self.triangle_ids[j as usize],
-        });
+        let triangle = found.triangle.map(|(h, tri, id)| PrimitiveHit { hit: h.hit(&tri), primitive: id });
         match (triangle, found.other) {
             (Some(t), other) => PrimitiveHit::closer(other, t),
             (None, other) => other,
@@ -506,19 +552,42 @@ impl<P: Intersect> Grid<P> {
     fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         let sheared = ShearedRay::new(ray);
         let sheared = sheared.as_ref();
-        for &item in &self.direct {
+        let range = Interval::new(0.0, t_max);
+        if let Some(sheared) = sheared {
+            for (tri, _) in &self.direct_triangles {
+                tally.tested();
+                if watertight_hits(tri, sheared, range) {
+                    return true;
+                }
+            }
+        }
+        for &id in &self.direct_others {
             tally.tested();
-            if self.occludes(item, ray, sheared, t_max) {
+            if self.prims[id as usize].occluded_canonical(ray, t_max) {
                 return true;
             }
         }
         let mut mailbox = Mailbox::new(self.mailbox);
         let mut hit = false;
-        let walked = self.walk(ray, 0.0, t_max, |items| {
-            for &item in items {
-                if mailbox.first_visit(item) {
+        let walked = self.walk(ray, 0.0, t_max, |packets, used, others| {
+            if let Some(sheared) = sheared {
+                for (packet, &used) in packets.iter().zip(used) {
+                    for lane in lanes(candidates(packet, sheared, LANES) & used as u32) {
+                        let id = packet.id(lane);
+                        if mailbox.first_visit(id) {
+                            tally.tested();
+                            if watertight_hits(&packet.triangle(lane), sheared, range) {
+                                hit = true;
+                                return f32::NEG_INFINITY;
+                            }
+                        }
+                    }
+                }
+            }
+            for &id in others {
+                if mailbox.first_visit(id) {
                     tally.tested();
-                    if self.occludes(item, ray, sheared, t_max) {
+                    if self.prims[id as usize].occluded_canonical(ray, t_max) {
                         hit = true;
                         return f32::NEG_INFINITY;
                     }
@@ -546,11 +615,12 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
 
     fn stats(&self) -> AccelStats {
         let bytes = std::mem::size_of_val(self.prims.as_slice())
-            + std::mem::size_of_val(self.cell_start.as_slice())
-            + std::mem::size_of_val(self.items.as_slice())
-            + std::mem::size_of_val(self.triangles.as_slice())
-            + std::mem::size_of_val(self.triangle_ids.as_slice())
-            + std::mem::size_of_val(self.direct.as_slice());
+            + std::mem::size_of_val(self.starts.as_slice())
+            + std::mem::size_of_val(self.packets.as_slice())
+            + std::mem::size_of_val(self.used.as_slice())
+            + std::mem::size_of_val(self.others.as_slice())
+            + std::mem::size_of_val(self.direct_triangles.as_slice())
+            + std::mem::size_of_val(self.direct_others.as_slice());
         AccelStats { nodes: self.cells.iter().product(), bytes, primitives: self.prims.len() }
     }
 }

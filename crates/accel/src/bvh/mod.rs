@@ -24,7 +24,7 @@ mod build;
 mod kernel;
 mod leaf;
 mod stream;
-mod triangles;
+pub(crate) mod triangles;
 mod wide;
 
 pub use build::BvhBuild;

@@ -9,14 +9,14 @@ use raylume_geometry::{Triangle, Vec3A, gamma};
 use raylume_intersect::ShearedRay;
 
 /// Triangles per packet.
-pub(super) const LANES: usize = 4;
+pub(crate) const LANES: usize = 4;
 /// The id of an unused lane.
 const NO_ID: u32 = u32::MAX;
 
 /// Up to four triangles, coordinate by coordinate: `v[vertex][axis][lane]`, and their input indices.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub(super) struct Packet {
+pub(crate) struct Packet {
     pub v: [[[f32; LANES]; 3]; 3],
     id: [u32; LANES],
 }
@@ -56,6 +56,12 @@ impl Packet {
     /// Number of triangles held.
     pub fn len(&self) -> usize {
         self.id.iter().filter(|&&id| id != NO_ID).count()
+    }
+
+    /// The mask of the lanes that hold a triangle, without branches.
+    #[inline(always)]
+    pub fn used(&self) -> u32 {
+        (0..LANES).fold(0, |mask, lane| mask | ((self.id[lane] != NO_ID) as u32) << lane)
     }
 }
 
@@ -102,7 +108,7 @@ impl Leaf {
 /// [`ShearedRay::transform`] and `watertight_decide`, so a lane left out here is one the exact
 /// decision rejects too.
 #[inline(always)]
-pub(super) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
+pub(crate) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
     let [sx, sy, _] = ray.shear.map(Vec4::splat);
     let o = ray.origin.to_array();
