@@ -388,7 +388,7 @@ impl<E: Exact> pulp::NullaryFnOnce for Compiled<E> {
 /// A leaf's two packets in the ray's frame, as [`watertight_decide`](raylume_intersect::watertight_decide)
 /// forms them, lane by lane: the vertices' sheared coordinates (`z` not yet scaled) and the edge
 /// functions.
-struct Edges {
+pub(super) struct Edges {
     x: [__m256; 3],
     y: [__m256; 3],
     z: [__m256; 3],
@@ -549,11 +549,10 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
 /// test reports (its distance from [`decided_distances`]; a lane beyond the narrowed range by more than
 /// its error bound is one the scalar test rejects), so the answer is the scalar loop's, bit for bit.
 #[inline(always)]
-fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
+fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
     let avx = simd.avx;
     let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
-    let e = edges(simd, leaf, ray);
-    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, &e, test.lanes, ray, range);
+    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, e, test.lanes, ray, range);
     if hit == 0 {
         return closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
@@ -677,11 +676,15 @@ impl Filter for V3 {
         self.vectorize(Compiled(test))
     }
 
+    /// The leaf's edge functions, for the verdict of its candidates.
+    type Prepared = Edges;
+
     /// [`Portable`](super::leaf::Portable)'s filter with the very operations of
     /// [`candidates`](super::triangles::candidates), on both packets of a leaf at once.
     #[inline(always)]
-    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
-        candidate_lanes(self, &edges(self, leaf, ray), count)
+    fn prepare(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> (u32, Edges) {
+        let e = edges(self, leaf, ray);
+        (candidate_lanes(self, &e, count), e)
     }
 
     /// The vector [`Verdict`] of the leaf's lanes; the scalar test for the lanes it leaves open.
@@ -693,8 +696,8 @@ impl Filter for V3 {
     }
 
     #[inline(always)]
-    fn closest_of_candidates(self, test: Candidates) -> f32 {
-        closest_of_candidates(self, test)
+    fn closest_of_candidates(self, test: Candidates, e: &Edges) -> f32 {
+        closest_of_candidates(self, test, e)
     }
 }
 
@@ -703,6 +706,7 @@ mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Triangle, Vec3A};
 
+    use super::super::kernel::MAX_TRIANGLE_LEAF;
     use super::super::leaf::Portable;
     use super::super::triangles::tests::arb_point;
     use super::super::wide::BoxRay;
@@ -756,7 +760,8 @@ mod tests {
         let mut found = None;
         let leaves = std::slice::from_ref(leaf);
         let test = Candidates { leaf, leaves, first: 0, lanes, ray, range, found: &mut found };
-        let end = filter.closest_of_candidates(test);
+        let (_, prepared) = filter.prepare(leaf, MAX_TRIANGLE_LEAF, ray);
+        let end = filter.closest_of_candidates(test, &prepared);
         (end, found)
     }
 
