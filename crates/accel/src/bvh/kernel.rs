@@ -144,9 +144,11 @@ pub(super) type LeafNormals = [[f32; 3]; MAX_TRIANGLE_LEAF];
 fn leaf_normals(leaf: &Leaf) -> LeafNormals {
     std::array::from_fn(|bit| {
         let bit = bit as u32;
-        (leaf.id(bit) != super::triangles::NO_ID)
-            .then(|| unit_normal(&leaf.triangle(bit)).unwrap_or(Vec3A::Z).to_array())
-            .unwrap_or_default()
+        if leaf.id(bit) == super::triangles::NO_ID {
+            [0.0; 3]
+        } else {
+            unit_normal(&leaf.triangle(bit)).unwrap_or(Vec3A::Z).to_array()
+        }
     })
 }
 
