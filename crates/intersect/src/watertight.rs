@@ -79,7 +79,13 @@ impl TriangleHit {
     /// normal ([`unit_normal`]; a decided hit's triangle has one).
     #[inline]
     pub fn hit(&self, tri: &Triangle) -> Hit {
-        let normal = unit_normal(tri).unwrap_or(Vec3A::Z);
+        self.hit_with_normal(tri, unit_normal(tri).unwrap_or(Vec3A::Z))
+    }
+
+    /// [`TriangleHit::hit`] with the triangle's [`unit_normal`] given: accelerators that keep each
+    /// triangle's normal pass it instead of forming it again.
+    #[inline]
+    pub fn hit_with_normal(&self, tri: &Triangle, normal: Vec3A) -> Hit {
         let [b0, b1, b2] = self.b;
         // Within the vertices' box, as the exact point is: rounding must not take it out.
         let point = (tri.p[0] * b0 + tri.p[1] * b1 + tri.p[2] * b2)

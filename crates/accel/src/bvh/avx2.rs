@@ -388,7 +388,7 @@ impl<E: Exact> pulp::NullaryFnOnce for Compiled<E> {
 /// A leaf's two packets in the ray's frame, as [`watertight_decide`](raylume_intersect::watertight_decide)
 /// forms them, lane by lane: the vertices' sheared coordinates (`z` not yet scaled) and the edge
 /// functions.
-struct Edges {
+pub(super) struct Edges {
     x: [__m256; 3],
     y: [__m256; 3],
     z: [__m256; 3],
@@ -546,17 +546,17 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
 /// [`Filter::closest_of_candidates`] with the lanes' verdict, distance and barycentrics from AVX
 /// registers: the candidates are taken in turn as the scalar loop takes them, the scalar test run for
 /// the lanes the verdict leaves open, and an accepted lane's distance and barycentrics those the scalar
-/// test reports (its distance from `decided_distance`; a lane beyond the narrowed range by more than
+/// test reports (its distance from [`decided_distances`]; a lane beyond the narrowed range by more than
 /// its error bound is one the scalar test rejects), so the answer is the scalar loop's, bit for bit.
 #[inline(always)]
-fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
+fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
     let avx = simd.avx;
     let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
-    let e = edges(simd, leaf, ray);
-    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, &e, test.lanes, ray, range);
+    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, e, test.lanes, ray, range);
     if hit == 0 {
         return closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
+    let decided: [f32; 8] = pulp::cast(decided_distances(simd, leaf, ray, t));
     let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
     let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
     for bit in set_bits(hit | open) {
@@ -564,13 +564,70 @@ fn closest_of_candidates(simd: V3, mut test: Candidates) -> f32 {
         if open & (1 << bit) != 0 {
             test.decide(bit, &mut range);
         } else if t[i] - delta_t[i] <= range.max {
-            let t = raylume_intersect::decided_distance(&leaf.triangle(bit), ray, t[i]);
+            let t = decided[i];
             if range.contains(t) && t > 0.0 {
                 test.keep(bit, TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]] }, &mut range);
             }
         }
     }
     range.max
+}
+
+/// [`decided_distance`](raylume_intersect::decided_distance) of every lane of `leaf` whose f32 distance
+/// is `t`, with the scalar routine's operations in its order, four lanes at a time in f64: the
+/// triangle's `normal64`, the distance to its plane, and `t` where that distance is not finite in f32
+/// (a zero denominator makes it infinite or NaN). Every lane is formed, so the distances do not wait
+/// for the verdict's lanes.
+#[inline(always)]
+fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256) -> __m256 {
+    let avx = simd.avx;
+    let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
+    let (ox, oy, oz) =
+        (avx._mm256_set1_pd(o[0] as f64), avx._mm256_set1_pd(o[1] as f64), avx._mm256_set1_pd(o[2] as f64));
+    let (dx, dy, dz) =
+        (avx._mm256_set1_pd(d[0] as f64), avx._mm256_set1_pd(d[1] as f64), avx._mm256_set1_pd(d[2] as f64));
+    // No closures here (see `Walk`).
+    macro_rules! distance {
+        ($p:expr) => {{
+            let v = &$p.v;
+            macro_rules! wide {
+                ($k:literal, $a:literal) => {
+                    avx._mm256_cvtps_pd(pulp::cast(v[$k][$a]))
+                };
+            }
+            let (p0x, p0y, p0z) = (wide!(0, 0), wide!(0, 1), wide!(0, 2));
+            let (e1x, e1y, e1z) = (
+                avx._mm256_sub_pd(wide!(1, 0), p0x),
+                avx._mm256_sub_pd(wide!(1, 1), p0y),
+                avx._mm256_sub_pd(wide!(1, 2), p0z),
+            );
+            let (e2x, e2y, e2z) = (
+                avx._mm256_sub_pd(wide!(2, 0), p0x),
+                avx._mm256_sub_pd(wide!(2, 1), p0y),
+                avx._mm256_sub_pd(wide!(2, 2), p0z),
+            );
+            let nx = avx._mm256_sub_pd(avx._mm256_mul_pd(e1y, e2z), avx._mm256_mul_pd(e1z, e2y));
+            let ny = avx._mm256_sub_pd(avx._mm256_mul_pd(e1z, e2x), avx._mm256_mul_pd(e1x, e2z));
+            let nz = avx._mm256_sub_pd(avx._mm256_mul_pd(e1x, e2y), avx._mm256_mul_pd(e1y, e2x));
+            let (qx, qy, qz) = (avx._mm256_sub_pd(p0x, ox), avx._mm256_sub_pd(p0y, oy), avx._mm256_sub_pd(p0z, oz));
+            let den = avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(nx, dx), avx._mm256_mul_pd(ny, dy)),
+                avx._mm256_mul_pd(nz, dz),
+            );
+            let num = avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(nx, qx), avx._mm256_mul_pd(ny, qy)),
+                avx._mm256_mul_pd(nz, qz),
+            );
+            avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
+        }};
+    }
+    let [p, q] = &leaf.packets;
+    let plane = avx._mm256_set_m128(distance!(q), distance!(p));
+    let finite = avx._mm256_cmp_ps::<_CMP_LT_OQ>(
+        avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), plane),
+        avx._mm256_set1_ps(f32::INFINITY),
+    );
+    avx._mm256_blendv_ps(t, plane, finite)
 }
 
 /// `k * ((c * x * y + p * q) + r * s)` for `(c, [x, y])`, `[p, q]`, `[r, s]`: the shape of both terms of
@@ -619,11 +676,15 @@ impl Filter for V3 {
         self.vectorize(Compiled(test))
     }
 
+    /// The leaf's edge functions, for the verdict of its candidates.
+    type Prepared = Edges;
+
     /// [`Portable`](super::leaf::Portable)'s filter with the very operations of
     /// [`candidates`](super::triangles::candidates), on both packets of a leaf at once.
     #[inline(always)]
-    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
-        candidate_lanes(self, &edges(self, leaf, ray), count)
+    fn prepare(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> (u32, Edges) {
+        let e = edges(self, leaf, ray);
+        (candidate_lanes(self, &e, count), e)
     }
 
     /// The vector [`Verdict`] of the leaf's lanes; the scalar test for the lanes it leaves open.
@@ -635,8 +696,8 @@ impl Filter for V3 {
     }
 
     #[inline(always)]
-    fn closest_of_candidates(self, test: Candidates) -> f32 {
-        closest_of_candidates(self, test)
+    fn closest_of_candidates(self, test: Candidates, e: &Edges) -> f32 {
+        closest_of_candidates(self, test, e)
     }
 }
 
@@ -645,6 +706,7 @@ mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Triangle, Vec3A};
 
+    use super::super::kernel::MAX_TRIANGLE_LEAF;
     use super::super::leaf::Portable;
     use super::super::triangles::tests::arb_point;
     use super::super::wide::BoxRay;
@@ -698,7 +760,8 @@ mod tests {
         let mut found = None;
         let leaves = std::slice::from_ref(leaf);
         let test = Candidates { leaf, leaves, first: 0, lanes, ray, range, found: &mut found };
-        let end = filter.closest_of_candidates(test);
+        let (_, prepared) = filter.prepare(leaf, MAX_TRIANGLE_LEAF, ray);
+        let end = filter.closest_of_candidates(test, &prepared);
         (end, found)
     }
 

@@ -3,7 +3,7 @@
 //! once per kernel, with no dynamic dispatch per ray.
 
 use raylume_geometry::{Aabb, Ray, Triangle, Vec3A};
-use raylume_intersect::{Hit, TriangleHit};
+use raylume_intersect::{Hit, TriangleHit, unit_normal};
 
 use super::build::{BuildItem, BvhBuild, build_binary};
 use super::leaf::{ClosestLeaf, Filter, OccludedLeaf, Portable};
@@ -126,13 +126,30 @@ impl TriangleTree {
     }
 }
 
-/// The triangles' tree: its nodes, each leaf's triangles and each leaf's box (the packet walk tests
-/// it for four rays at a time).
+/// The triangles' tree: its nodes, each leaf's triangles, each leaf's box (the packet walk tests
+/// it for four rays at a time) and the unit normals of each leaf's triangles (read once per query,
+/// for the closest hit's record).
 #[derive(Clone, Debug)]
 pub(super) struct Triangles {
     pub tree: TriangleTree,
     pub leaves: Vec<Leaf>,
     pub leaf_bounds: Vec<[f32; 6]>,
+    pub leaf_normals: Vec<LeafNormals>,
+}
+
+/// The [`unit_normal`] of each triangle of a leaf, by candidate bit (unused bits hold zeros).
+pub(super) type LeafNormals = [[f32; 3]; MAX_TRIANGLE_LEAF];
+
+/// The unit normals of `leaf`'s triangles.
+fn leaf_normals(leaf: &Leaf) -> LeafNormals {
+    std::array::from_fn(|bit| {
+        let bit = bit as u32;
+        if leaf.id(bit) == super::triangles::NO_ID {
+            [0.0; 3]
+        } else {
+            unit_normal(&leaf.triangle(bit)).unwrap_or(Vec3A::Z).to_array()
+        }
+    })
 }
 
 /// The tree's size figures and kernel.
@@ -204,7 +221,8 @@ impl Triangles {
                 TriangleTree::Portable(tree)
             }
         };
-        Self { tree, leaves, leaf_bounds }
+        let leaf_normals = leaves.iter().map(leaf_normals).collect();
+        Self { tree, leaves, leaf_bounds, leaf_normals }
     }
 
     /// The box of every triangle.
@@ -217,11 +235,12 @@ impl Triangles {
         self.tree.visit(Summary).1
     }
 
-    /// Bytes of the nodes, the leaves and their boxes.
+    /// Bytes of the nodes, the leaves, their boxes and their normals.
     pub fn bytes(&self) -> usize {
         self.tree.visit(Summary).2
             + std::mem::size_of_val(self.leaves.as_slice())
             + std::mem::size_of_val(self.leaf_bounds.as_slice())
+            + std::mem::size_of_val(self.leaf_normals.as_slice())
     }
 
     /// The kernel that walks the tree.
@@ -233,8 +252,16 @@ impl Triangles {
     /// [`MAX_TRIANGLE_LEAF`] triangles, its box inside the one its parent holds for it and around its
     /// triangles. Pushes the input index of each triangle onto `ids`.
     pub fn validate(&self, ids: &mut Vec<u32>) -> Result<(), String> {
-        if self.leaf_bounds.len() != self.leaves.len() {
-            return Err(format!("{} leaf boxes for {} leaves", self.leaf_bounds.len(), self.leaves.len()));
+        if self.leaf_bounds.len() != self.leaves.len() || self.leaf_normals.len() != self.leaves.len() {
+            return Err(format!(
+                "{} leaf boxes and {} leaves' normals for {} leaves",
+                self.leaf_bounds.len(),
+                self.leaf_normals.len(),
+                self.leaves.len()
+            ));
+        }
+        if let Some(l) = self.leaves.iter().zip(&self.leaf_normals).position(|(leaf, n)| leaf_normals(leaf) != *n) {
+            return Err(format!("leaf {l}: its normals are not its triangles'"));
         }
         let mut reached = vec![0usize; self.leaves.len()];
         self.tree.visit(Validate { tris: self, reached: &mut reached, ids })?;
@@ -247,8 +274,8 @@ impl Triangles {
     /// The hit and primitive of `found` (a hit, its leaf and candidate bit).
     #[inline(always)]
     pub fn hit(&self, (h, leaf, bit): (TriangleHit, u32, u32)) -> (Hit, u32) {
-        let leaf = &self.leaves[leaf as usize];
-        (h.hit(&leaf.triangle(bit)), leaf.id(bit))
+        let (normals, leaf) = (&self.leaf_normals[leaf as usize], &self.leaves[leaf as usize]);
+        (h.hit_with_normal(&leaf.triangle(bit), Vec3A::from_array(normals[bit as usize])), leaf.id(bit))
     }
 
     /// The closest hit of `ray` within `[t_min, t_max]`, its leaf and candidate bit.

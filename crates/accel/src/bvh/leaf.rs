@@ -14,8 +14,17 @@ use crate::Tally;
 /// How a leaf's candidate triangles are found: four lanes at a time ([`Portable`]), or eight in AVX
 /// registers (`pulp::x86::V3`).
 pub(super) trait Filter: Copy {
+    /// What the filter forms of a leaf on its way to the candidates and hands to the exact test of
+    /// those candidates, which would otherwise form it again (`()` for a filter that keeps nothing).
+    type Prepared;
+
     /// The candidate triangles of a leaf holding `count`: bit `4 j + l` for lane `l` of packet `j`.
-    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32;
+    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
+        self.prepare(leaf, count, ray).0
+    }
+
+    /// [`Filter::leaf_candidates`], with what the filter formed on the way to them.
+    fn prepare(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> (u32, Self::Prepared);
 
     /// Starts loading `leaf` into the cache, where the filter can (none by default).
     #[inline(always)]
@@ -30,9 +39,10 @@ pub(super) trait Filter: Copy {
 
     /// The closest hit of `test`'s candidates within its range, kept in its `found`; returns the new
     /// end of the range. The answer of the scalar watertight test of each candidate in turn, the range
-    /// narrowing at each hit.
+    /// narrowing at each hit. `prepared` is what [`Filter::prepare`] formed of the leaf.
     #[inline(always)]
-    fn closest_of_candidates(self, test: Candidates) -> f32 {
+    fn closest_of_candidates(self, test: Candidates, prepared: &Self::Prepared) -> f32 {
+        let _ = prepared;
         closest_of_candidates_scalar(test)
     }
 
@@ -56,33 +66,36 @@ pub(super) trait Exact {
 pub(super) struct Portable;
 
 impl Filter for Portable {
+    type Prepared = ();
+
     #[inline(always)]
-    fn leaf_candidates(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> u32 {
+    fn prepare(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> (u32, ()) {
         let mut lanes = 0;
         for (j, packet) in leaf.packets.iter().enumerate().take(count.div_ceil(LANES)) {
             lanes |= candidates(packet, ray, (count - j * LANES).min(LANES)) << (j * LANES);
         }
-        lanes
+        (lanes, ())
     }
 }
 
-/// Tests the candidate `lanes` of leaf `first` for the closest hit within `range`, keeping it in
+/// Tests leaf `first` (of `count` triangles) for the closest hit within `range`, keeping it in
 /// `found` (the hit, its leaf and candidate bit); returns the new end of the range.
 #[inline(always)]
 pub(super) fn closest_in_leaf<F: Filter>(
     filter: F,
     leaves: &[Leaf],
-    first: usize,
-    lanes: u32,
+    (first, count): (usize, usize),
     ray: &ShearedRay,
     range: Interval,
     found: &mut Option<(TriangleHit, u32, u32)>,
 ) -> f32 {
+    let leaf = &leaves[first];
+    let (lanes, prepared) = filter.prepare(leaf, count, ray);
     if lanes == 0 {
         range.max
     } else {
-        let test = Candidates { leaf: &leaves[first], leaves, first, lanes, ray, range, found };
-        closest_of_candidates(ClosestOfCandidates { filter, test })
+        let test = Candidates { leaf, leaves, first, lanes, ray, range, found };
+        closest_of_candidates(ClosestOfCandidates { filter, test, prepared: &prepared })
     }
 }
 
@@ -141,10 +154,11 @@ pub(super) fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
     range.max
 }
 
-/// [`closest_of_candidates`]' test and the filter that compiles it.
-struct ClosestOfCandidates<'a, F> {
+/// [`closest_of_candidates`]' test, the filter that compiles it and what the filter formed of the leaf.
+struct ClosestOfCandidates<'a, F: Filter> {
     filter: F,
     test: Candidates<'a>,
+    prepared: &'a F::Prepared,
 }
 
 impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
@@ -152,7 +166,7 @@ impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
 
     #[inline(always)]
     fn run(self) -> f32 {
-        self.filter.closest_of_candidates(self.test)
+        self.filter.closest_of_candidates(self.test, self.prepared)
     }
 }
 
@@ -225,14 +239,6 @@ impl<'a, F: Filter> RayLeaves<'a, F> {
             self.filter.prefetch(l);
         }
     }
-
-    /// The leaf's index, its candidate lanes and the prepared ray; `None` as [`RayLeaves::prepared`].
-    #[inline(always)]
-    fn candidates<T: Tally>(&mut self, leaf: u32, tally: &mut T) -> Option<(usize, u32, &ShearedRay)> {
-        let (filter, leaves) = (self.filter, self.leaves);
-        let (first, count, sheared) = self.prepared(leaf, tally)?;
-        Some((first, filter.leaf_candidates(&leaves[first], count, sheared), sheared))
-    }
 }
 
 /// The triangles' leaf test of one ray's closest-hit walk.
@@ -266,8 +272,8 @@ impl<T: Tally, F: Filter> LeafTest<T> for ClosestLeaf<'_, F> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, t_max: f32, tally: &mut T) -> f32 {
         let (filter, leaves) = (self.leaves.filter, self.leaves.leaves);
-        let Some((first, lanes, sheared)) = self.leaves.candidates(leaf, tally) else { return t_max };
-        closest_in_leaf(filter, leaves, first, lanes, sheared, Interval::new(self.t_min, t_max), &mut self.found)
+        let Some((first, count, sheared)) = self.leaves.prepared(leaf, tally) else { return t_max };
+        closest_in_leaf(filter, leaves, (first, count), sheared, Interval::new(self.t_min, t_max), &mut self.found)
     }
 }
 

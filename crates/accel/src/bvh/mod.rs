@@ -477,7 +477,7 @@ mod tests {
     }
 
     /// Each way of breaking a tree is caught: a leaf held twice, a leaf's box not around its triangles,
-    /// a primitive twice among the other shapes.
+    /// a leaf's normals not its triangles', a primitive twice among the other shapes.
     #[test]
     fn validate_finds_broken_trees() {
         let prims = random_scene(3, 400, 1.0);
@@ -491,6 +491,9 @@ mod tests {
             let mut small = bvh.clone();
             small.triangles.as_mut().unwrap().leaf_bounds[2][3] = f32::NEG_INFINITY;
             assert!(small.validate().is_err());
+            let mut turned = bvh.clone();
+            turned.triangles.as_mut().unwrap().leaf_normals[1][0][0] += 0.5;
+            assert!(turned.validate().is_err());
             let mut other = bvh.clone();
             let (_, _, ids) = other.others.as_mut().unwrap();
             ids[1] = ids[0];

@@ -191,12 +191,10 @@ struct Closest<'a, F> {
 impl<F: Filter> RayTest for Closest<'_, F> {
     #[inline(always)]
     fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
-        let lanes = self.filter.leaf_candidates(&self.leaves[first], count, sheared);
         closest_in_leaf(
             self.filter,
             self.leaves,
-            first,
-            lanes,
+            (first, count),
             sheared,
             Interval::new(self.t_min, t_max),
             &mut self.found[i],

@@ -11,7 +11,7 @@ use raylume_intersect::ShearedRay;
 /// Triangles per packet.
 pub(crate) const LANES: usize = 4;
 /// The id of an unused lane.
-const NO_ID: u32 = u32::MAX;
+pub(super) const NO_ID: u32 = u32::MAX;
 
 /// Up to four triangles, coordinate by coordinate: `v[vertex][axis][lane]`, and their input indices.
 #[derive(Clone, Copy, Debug)]
