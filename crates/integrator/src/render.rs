@@ -382,7 +382,9 @@ fn gathered_band<A, M, C, S, I>(
         for (&i, color) in pixels.iter().zip(colors.iter()) {
             out[i] += *color;
         }
-        (rays.clear(), pixels.clear(), sources.clear());
+        rays.clear();
+        pixels.clear();
+        sources.clear();
     };
     let rows = out.len() / width;
     for tile in (0..width).step_by(TILE) {

@@ -344,7 +344,9 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
             if SOFT != SoftShadows::NONE && light.is_area() {
                 continue;
             }
-            (shadow.clear(), ends.clear(), owners.clear());
+            shadow.clear();
+            ends.clear();
+            owners.clear();
             for (i, (s, ray)) in surfaces.iter().zip(rays).enumerate() {
                 if let Some(s) = s
                     && let Some((r, dist)) = shadow_ray(s.above, s.n, light.centre(), ray.time)
