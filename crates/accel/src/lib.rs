@@ -229,6 +229,34 @@ pub trait Accelerator: Sync + Send {
     /// If `occluded` is not as long as `rays`.
     fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
+        for (ray, o) in rays.iter().zip(occluded) {
+            *o = self.occluded(ray, t_max);
+        }
+    }
+
+    /// Whether each of `rays` is occluded within `(0, t_max[i])`, into `occluded`: `occluded[i]` is
+    /// [`occluded`](Accelerator::occluded) of `rays[i]` and `t_max[i]` (shadow rays from neighbouring
+    /// points to one light, each ending at the light). Overridden like
+    /// [`closest_hits`](Accelerator::closest_hits).
+    ///
+    /// ```
+    /// use raylume_accel::{Accelerator, Bvh};
+    /// use raylume_geometry::{Interval, Ray, Triangle, Vec3A};
+    /// use raylume_intersect::Primitive;
+    /// let wall = Triangle::new(Vec3A::new(-9.0, -9.0, 5.0), Vec3A::new(9.0, -9.0, 5.0), Vec3A::new(0.0, 9.0, 5.0));
+    /// let bvh = Bvh::new(vec![Primitive::Triangle(wall)], Interval::new(0.0, 0.0));
+    /// let rays: Vec<Ray> = (1..17).map(|i| Ray::new(Vec3A::ZERO, Vec3A::new(0.01 * i as f32, 0.02, 1.0))).collect();
+    /// let t_max: Vec<f32> = (0..16).map(|i| i as f32).collect();
+    /// let mut occluded = vec![false; rays.len()];
+    /// bvh.occluded_each_within(&rays, &t_max, &mut occluded);
+    /// assert!(occluded.iter().zip(&rays).zip(&t_max).all(|((o, r), t)| *o == bvh.occluded(r, *t)));
+    /// assert_eq!((occluded[4], occluded[6]), (false, true));
+    /// ```
+    ///
+    /// # Panics
+    /// If `t_max` or `occluded` is not as long as `rays`.
+    fn occluded_each_within(&self, rays: &[Ray], t_max: &[f32], occluded: &mut [bool]) {
+        assert!(rays.len() == t_max.len() && rays.len() == occluded.len(), "one end and one answer per ray");
         occluded_ray_by_ray(self, rays, t_max, occluded);
     }
 }
@@ -246,9 +274,10 @@ fn closest_ray_by_ray<A: Accelerator + ?Sized>(
     }
 }
 
-/// [`Accelerator::occluded_each`] by single-ray queries.
-fn occluded_ray_by_ray<A: Accelerator + ?Sized>(accel: &A, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
-    for (ray, o) in rays.iter().zip(occluded) {
+/// [`Accelerator::occluded_each_within`] by single-ray queries: the BVH's answer for runs it cannot
+/// walk as packets.
+fn occluded_ray_by_ray<A: Accelerator + ?Sized>(accel: &A, rays: &[Ray], t_max: &[f32], occluded: &mut [bool]) {
+    for ((ray, &t_max), o) in rays.iter().zip(t_max).zip(occluded) {
         *o = accel.occluded(ray, t_max);
     }
 }

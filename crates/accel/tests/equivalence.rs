@@ -435,10 +435,67 @@ fn batches_match_single_rays() {
     assert!(hits > 5000, "the rays must hit things: {hits}");
 }
 
+/// Shadow rays from neighbouring points to one light, each with its own end (the light's distance,
+/// short of it, past it, or NaN), are answered by `occluded_each_within` as the single-ray query
+/// answers each: patches of points on closed meshes among other shapes and a plane, lights on every
+/// side (so some batches mix the directions' signs), batches longer and shorter than a packet.
+#[test]
+fn shadow_batches_with_their_own_ends_match_single_rays() {
+    let mut rng = Pcg32::new(12, 5);
+    let (mut occluded_count, mut total) = (0, 0);
+    for n in [0usize, 9, 200] {
+        let mut prims = random_scene(&mut rng, n);
+        if n == 9 {
+            prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -12.0, 0.0), normal: Vec3A::Y }));
+        }
+        for c in 0..3 {
+            let centre = point(&mut rng, 6.0);
+            prims.extend(
+                tessellated_cube(centre, 1.0 + 3.0 * uniform(&mut rng), 4 + 3 * c).into_iter().map(Primitive::Triangle),
+            );
+        }
+        let shutter = Interval::new(0.0, 1.0);
+        let bvh = checked(Bvh::new(prims.clone(), shutter));
+        let portable = checked(Bvh::with_kernel(prims.clone(), shutter, BvhBuild::Sah, BvhKernel::Portable));
+        let grid = Grid::new(prims.clone(), shutter, GridParams::default());
+        for b in 0..100 {
+            let light = point(&mut rng, 20.0);
+            let centre = point(&mut rng, 8.0);
+            let spread = [0.01, 0.3, 3.0][b % 3];
+            let count = [64, 37, 130][b % 3];
+            let mut rays = Vec::new();
+            let mut ends = Vec::new();
+            for i in 0..count {
+                let from = centre + point(&mut rng, spread);
+                let to_light = light - from;
+                let dist = to_light.length();
+                rays.push(Ray::with_time(from, to_light / dist, uniform(&mut rng)));
+                ends.push(match i % 7 {
+                    0 => dist * 0.5,
+                    1 => dist * 2.0,
+                    2 if b % 4 == 0 => f32::NAN,
+                    _ => dist,
+                });
+            }
+            let mut occluded = vec![false; count];
+            for (name, accel) in [("bvh", &bvh as &dyn BatchQueries), ("bvh-portable", &portable), ("grid", &grid)] {
+                accel.batch_occluded_within(&rays, &ends, &mut occluded);
+                for (i, ray) in rays.iter().enumerate() {
+                    assert_eq!(occluded[i], accel.single_occluded(ray, ends[i]), "{name}: {ray:?} before {}", ends[i]);
+                    occluded_count += occluded[i] as usize;
+                    total += 1;
+                }
+            }
+        }
+    }
+    assert!(occluded_count > total / 10 && occluded_count < total * 9 / 10, "{occluded_count} of {total} occluded");
+}
+
 /// The batch and single-ray queries of an accelerator, as an object.
 trait BatchQueries {
     fn batch_closest(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]);
     fn batch_occluded(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]);
+    fn batch_occluded_within(&self, rays: &[Ray], t_max: &[f32], occluded: &mut [bool]);
     fn single_closest(&self, ray: &Ray, t_range: Interval) -> Option<PrimitiveHit>;
     fn single_occluded(&self, ray: &Ray, t_max: f32) -> bool;
 }
@@ -449,6 +506,9 @@ impl<A: Accelerator> BatchQueries for A {
     }
     fn batch_occluded(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
         self.occluded_each(rays, t_max, occluded)
+    }
+    fn batch_occluded_within(&self, rays: &[Ray], t_max: &[f32], occluded: &mut [bool]) {
+        self.occluded_each_within(rays, t_max, occluded)
     }
     fn single_closest(&self, ray: &Ray, t_range: Interval) -> Option<PrimitiveHit> {
         self.closest_hit(ray, t_range)

@@ -47,7 +47,7 @@ pub use render::{
     CancelToken, MAX_DEPTH, MAX_LIGHT_GRID, MAX_SPP, Observer, RayStats, RenderSettings, render, render_pass,
 };
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
-pub use whitted::{SoftShadows, Whitted};
+pub use whitted::{BatchBuffers, SoftShadows, Whitted};
 
 use raylume_accel::Accelerator;
 use raylume_geometry::{Ray, Vec3, Vec3A};
@@ -123,5 +123,33 @@ pub trait Integrator: Sync {
     ) -> Vec3 {
         let _ = first;
         self.radiance(world, ray, t_min, sample, stats)
+    }
+
+    /// [`radiance_after`](Integrator::radiance_after) of a batch of camera rays, into `colors`:
+    /// `colors[i]` is the colour along `rays[i]`, whose closest hit is `firsts[i]`, drawn from
+    /// `samples[i]`, bit for bit. An integrator overrides it to trace the batch's secondary rays
+    /// together where they are coherent (the shadow rays of neighbouring hits); `buffers` is kept
+    /// from one batch to the next.
+    ///
+    /// # Panics
+    /// If `firsts`, `samples` or `colors` is not as long as `rays`.
+    #[allow(clippy::too_many_arguments)]
+    fn radiances_after<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        rays: &[Ray],
+        t_min: f32,
+        firsts: &[Option<raylume_accel::PrimitiveHit>],
+        samples: &mut [S],
+        colors: &mut [Vec3],
+        buffers: &mut BatchBuffers,
+        stats: &mut RayStats,
+    ) {
+        let count = rays.len();
+        assert!(firsts.len() == count && samples.len() == count && colors.len() == count, "one of each per ray");
+        let _ = buffers;
+        for (((ray, first), sample), color) in rays.iter().zip(firsts).zip(samples).zip(colors) {
+            *color = self.radiance_after(world, ray, t_min, *first, sample, stats);
+        }
     }
 }

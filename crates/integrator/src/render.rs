@@ -7,7 +7,7 @@ use raylume_material::{FresnelMode, Material};
 use rayon::prelude::*;
 
 use crate::sampler::{SampleSource, Sampler};
-use crate::{Film, Integrator, Profile, World};
+use crate::{BatchBuffers, Film, Integrator, Profile, World};
 
 /// Deepest ray tree a render traces ([`RenderSettings::max_depth`]): the integrator recurses once
 /// per level, and this many levels fit with a wide margin in the 2 MiB stack of a default thread.
@@ -344,8 +344,9 @@ const TILE: usize = 8;
 /// The pixels `out` of a band of rows (the first, `first_row`, counted from the top of the image;
 /// `width` pixels each, from column `x0`), tile by tile, with their camera rays' first hits found
 /// [`GATHER`] samples at a time ([`Accelerator::closest_hits`]): each sample then goes on with its
-/// own numbers ([`Integrator::radiance_after`]), and each pixel sums its samples in the order of the
-/// one-by-one loop, so the image is the same, bit for bit. Pixels `mask` leaves out are skipped.
+/// own numbers, the batch's shadow rays traced together where the integrator does so
+/// ([`Integrator::radiances_after`]), and each pixel sums its samples in the order of the one-by-one
+/// loop, so the image is the same, bit for bit. Pixels `mask` leaves out are skipped.
 #[allow(clippy::too_many_arguments)]
 fn gathered_band<A, M, C, S, I>(
     world: &World<A, M>,
@@ -368,14 +369,22 @@ fn gathered_band<A, M, C, S, I>(
     let t_min = camera.t_min();
     let range = Interval::new(t_min, f32::INFINITY);
     let mut rays = Vec::with_capacity(GATHER);
-    let mut samples = Vec::with_capacity(GATHER);
+    let mut pixels = Vec::with_capacity(GATHER);
+    let mut sources = Vec::with_capacity(GATHER);
     let mut hits = [None; GATHER];
-    let mut trace = |rays: &mut Vec<Ray>, samples: &mut Vec<(usize, S::Source)>, out: &mut [Vec3]| {
-        let hits = &mut hits[..rays.len()];
+    let mut colors = [Vec3::ZERO; GATHER];
+    let mut buffers = BatchBuffers::default();
+    let mut trace = |rays: &mut Vec<Ray>, pixels: &mut Vec<usize>, sources: &mut Vec<S::Source>, out: &mut [Vec3]| {
+        let n = rays.len();
+        let (hits, colors) = (&mut hits[..n], &mut colors[..n]);
         world.accel.closest_hits(rays, range, hits);
-        for ((ray, (i, mut src)), first) in rays.drain(..).zip(samples.drain(..)).zip(hits.iter()) {
-            out[i] += integrator.radiance_after(world, &ray, t_min, *first, &mut src, stats);
+        integrator.radiances_after(world, rays, t_min, hits, sources, colors, &mut buffers, stats);
+        for (&i, color) in pixels.iter().zip(colors.iter()) {
+            out[i] += *color;
         }
+        rays.clear();
+        pixels.clear();
+        sources.clear();
     };
     let rows = out.len() / width;
     for tile in (0..width).step_by(TILE) {
@@ -393,16 +402,17 @@ fn gathered_band<A, M, C, S, I>(
                     let lens = if C::USES_LENS { src.lens() } else { Vec2::splat(0.5) };
                     let time = if C::USES_TIME { src.time() } else { 0.0 };
                     rays.push(camera.generate_ray(&CameraSample { film, lens, time }));
-                    samples.push((r * width + c, src));
+                    pixels.push(r * width + c);
+                    sources.push(src);
                     if rays.len() == GATHER {
-                        trace(&mut rays, &mut samples, out);
+                        trace(&mut rays, &mut pixels, &mut sources, out);
                     }
                 }
             }
         }
     }
     if !rays.is_empty() {
-        trace(&mut rays, &mut samples, out);
+        trace(&mut rays, &mut pixels, &mut sources, out);
     }
     let rendered = mask.map_or(out.len(), |m| m.iter().filter(|&&a| a).count());
     stats.camera += rendered as u64 * spp as u64;

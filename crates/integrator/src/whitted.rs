@@ -1,5 +1,6 @@
 use raylume_accel::{Accelerator, PrimitiveHit};
 use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
+use raylume_intersect::Hit;
 use raylume_material::{FresnelMode, Material, reflect, refract};
 
 use crate::sampler::SampleSource;
@@ -51,7 +52,9 @@ impl<const SOFT: u8> Whitted<SOFT> {
         }
     }
 
-    /// The light arriving from `light` at `above` (a point offset off the surface).
+    /// The light arriving from `light` at `above` (a point offset off the surface). `known` is what
+    /// a batch has found already for a point light: the direction to it if it lights the point, else
+    /// zero.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn direct<A: Accelerator, M: Material, S: SampleSource>(
@@ -64,21 +67,21 @@ impl<const SOFT: u8> Whitted<SOFT> {
         wo: Vec3A,
         material: &M,
         time: f32,
+        known: Option<Vec3A>,
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
         let unoccluded = |target: Vec3A, stats: &mut RayStats| -> Option<Vec3A> {
-            let to_light = target - above;
-            let dist = to_light.length();
-            let wi = to_light / dist;
-            if dist == 0.0 || n.dot(wi) <= 0.0 {
-                return None;
-            }
+            let (ray, dist) = shadow_ray(above, n, target, time)?;
             stats.shadow += 1;
-            (!world.accel.occluded(&Ray::with_time(above, wi, time), dist)).then_some(wi)
+            (!world.accel.occluded(&ray, dist)).then_some(ray.dir)
         };
         if SOFT == SoftShadows::NONE || !light.is_area() {
-            return match unoccluded(light.centre(), stats) {
+            let lit = match known {
+                Some(wi) => (wi != Vec3A::ZERO).then_some(wi),
+                None => unoccluded(light.centre(), stats),
+            };
+            return match lit {
                 Some(wi) => light.color * material.local(ns, wo, wi),
                 None => Vec3::ZERO,
             };
@@ -131,37 +134,41 @@ impl<const SOFT: u8> Whitted<SOFT> {
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
-        let Some(found) = found else {
-            let bg = world.background.eval(ray.dir);
-            // The course profile dims the background seen by deep reflections; plain returns it as is.
-            return if self.profile == Profile::Plain { bg } else { bg * self.profile.escape_weight(depth) };
-        };
-        let hit = found.hit;
-        let shading = world.shading[found.primitive as usize];
-        let material = &world.materials[shading.material as usize];
-        let entering = hit.front_face(ray);
-        // Geometric normal on the side the ray came from.
-        let n = if entering { hit.normal } else { -hit.normal };
-        let ns = if let Some(index) = shading.normals {
-            let vn = world.vertex_normals[index as usize];
-            let b = hit.uv;
-            let s = (vn[0] * (1.0 - b.x - b.y) + vn[1] * b.x + vn[2] * b.y).normalize_or_zero();
-            if s == Vec3A::ZERO {
-                n
-            } else if s.dot(n) < 0.0 {
-                -s
-            } else {
-                s
-            }
-        } else {
-            n
-        };
+        match found {
+            Some(found) => self.shade_surface(world, ray, &surface(world, ray, &found), depth, |_| None, sample, stats),
+            None => self.escape(world, ray, depth),
+        }
+    }
+
+    /// The colour seen along `ray` when it hits nothing.
+    #[inline(always)]
+    fn escape<A: Accelerator, M: Material>(&self, world: &World<A, M>, ray: &Ray, depth: u32) -> Vec3 {
+        let bg = world.background.eval(ray.dir);
+        // The course profile dims the background seen by deep reflections; plain returns it as is.
+        if self.profile == Profile::Plain { bg } else { bg * self.profile.escape_weight(depth) }
+    }
+
+    /// The colour along `ray` whose closest hit is `surface`; `known(l)` is what a batch has found
+    /// already for the point light `l` (see [`Whitted::direct`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn shade_surface<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        surface: &Surface,
+        depth: u32,
+        known: impl Fn(usize) -> Option<Vec3A>,
+        sample: &mut S,
+        stats: &mut RayStats,
+    ) -> Vec3 {
+        let &Surface { hit, material, entering, n, ns, above } = surface;
+        let material = &world.materials[material as usize];
         let wo = -ray.dir;
-        let above = offset_ray_origin(hit.point, hit.error, n);
 
         let mut color = Vec3::ZERO;
-        for light in &world.lights {
-            color += self.direct(world, light, above, n, ns, wo, material, ray.time, sample, stats);
+        for (l, light) in world.lights.iter().enumerate() {
+            color += self.direct(world, light, above, n, ns, wo, material, ray.time, known(l), sample, stats);
         }
 
         if depth < self.max_depth {
@@ -198,6 +205,76 @@ impl<const SOFT: u8> Whitted<SOFT> {
         }
         color.clamp(Vec3::ZERO, Vec3::ONE)
     }
+}
+
+/// Where a ray meets a surface, as shading sees it.
+#[derive(Clone, Copy, Debug)]
+struct Surface {
+    hit: Hit,
+    /// Index into the world's materials.
+    material: u32,
+    /// Whether the ray meets the surface's outside.
+    entering: bool,
+    /// The geometric normal on the side the ray came from.
+    n: Vec3A,
+    /// The shading normal on that side.
+    ns: Vec3A,
+    /// The hit point offset off the surface on that side: where shadow rays and reflections start.
+    above: Vec3A,
+}
+
+/// The surface `ray` meets at its closest hit `found`.
+#[inline(always)]
+fn surface<A: Accelerator, M: Material>(world: &World<A, M>, ray: &Ray, found: &PrimitiveHit) -> Surface {
+    let hit = found.hit;
+    let shading = world.shading[found.primitive as usize];
+    let entering = hit.front_face(ray);
+    let n = if entering { hit.normal } else { -hit.normal };
+    let ns = if let Some(index) = shading.normals {
+        let vn = world.vertex_normals[index as usize];
+        let b = hit.uv;
+        let s = (vn[0] * (1.0 - b.x - b.y) + vn[1] * b.x + vn[2] * b.y).normalize_or_zero();
+        if s == Vec3A::ZERO {
+            n
+        } else if s.dot(n) < 0.0 {
+            -s
+        } else {
+            s
+        }
+    } else {
+        n
+    };
+    let above = offset_ray_origin(hit.point, hit.error, n);
+    Surface { hit, material: shading.material, entering, n, ns, above }
+}
+
+/// The shadow ray from `above` (off a surface of normal `n`) to `target` and the distance to it, if
+/// the target is on the side `n` points to.
+#[inline(always)]
+fn shadow_ray(above: Vec3A, n: Vec3A, target: Vec3A, time: f32) -> Option<(Ray, f32)> {
+    let to_light = target - above;
+    let dist = to_light.length();
+    let wi = to_light / dist;
+    if dist == 0.0 || n.dot(wi) <= 0.0 {
+        return None;
+    }
+    Some((Ray::with_time(above, wi, time), dist))
+}
+
+/// What [`Integrator::radiances_after`] keeps from one batch of samples to the next, so that a
+/// render loop that makes one per task allocates nothing per batch.
+#[derive(Debug, Default)]
+pub struct BatchBuffers {
+    /// Each sample's surface, if its camera ray hit one.
+    surfaces: Vec<Option<Surface>>,
+    /// The shadow rays to one light, their ends, and the samples they belong to.
+    rays: Vec<Ray>,
+    ends: Vec<f32>,
+    owners: Vec<u32>,
+    answers: Vec<bool>,
+    /// At `i * lights + l`: the direction from sample `i`'s surface to the point light `l` if that
+    /// light reaches it, else zero.
+    lit: Vec<Vec3A>,
 }
 
 /// Tries to draw a fuzzy reflection direction at most this many times before absorbing the ray.
@@ -240,6 +317,67 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         stats: &mut RayStats,
     ) -> Vec3 {
         self.shade(world, ray, first, 1, sample, stats)
+    }
+
+    /// The point lights' shadow rays of the whole batch traced together, light by light
+    /// ([`Accelerator::occluded_each_within`]); area lights, sampled per sample, are traced ray by ray.
+    fn radiances_after<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        rays: &[Ray],
+        _t_min: f32,
+        firsts: &[Option<PrimitiveHit>],
+        samples: &mut [S],
+        colors: &mut [Vec3],
+        buffers: &mut BatchBuffers,
+        stats: &mut RayStats,
+    ) {
+        let count = rays.len();
+        assert!(firsts.len() == count && samples.len() == count && colors.len() == count, "one of each per ray");
+        let lights = world.lights.len();
+        let BatchBuffers { surfaces, rays: shadow, ends, owners, answers, lit } = buffers;
+        surfaces.clear();
+        surfaces.extend(rays.iter().zip(firsts).map(|(ray, first)| first.map(|f| surface(world, ray, &f))));
+        lit.clear();
+        lit.resize(count * lights, Vec3A::ZERO);
+        for (l, light) in world.lights.iter().enumerate() {
+            if SOFT != SoftShadows::NONE && light.is_area() {
+                continue;
+            }
+            shadow.clear();
+            ends.clear();
+            owners.clear();
+            for (i, (s, ray)) in surfaces.iter().zip(rays).enumerate() {
+                if let Some(s) = s
+                    && let Some((r, dist)) = shadow_ray(s.above, s.n, light.centre(), ray.time)
+                {
+                    shadow.push(r);
+                    ends.push(dist);
+                    owners.push(i as u32);
+                }
+            }
+            answers.clear();
+            answers.resize(shadow.len(), false);
+            world.accel.occluded_each_within(shadow, ends, answers);
+            stats.shadow += shadow.len() as u64;
+            for ((&i, &occluded), ray) in owners.iter().zip(answers.iter()).zip(shadow.iter()) {
+                if !occluded {
+                    lit[i as usize * lights + l] = ray.dir;
+                }
+            }
+        }
+        for (i, ((ray, s), sample)) in rays.iter().zip(surfaces.iter()).zip(samples).enumerate() {
+            colors[i] = match s {
+                Some(s) => {
+                    let known = |l: usize| {
+                        let point = SOFT == SoftShadows::NONE || !world.lights[l].is_area();
+                        point.then(|| lit[i * lights + l])
+                    };
+                    self.shade_surface(world, ray, s, 1, known, sample, stats)
+                }
+                None => self.escape(world, ray, 1),
+            };
+        }
     }
 }
 

@@ -50,6 +50,12 @@ const SAH_LEAF: usize = 1;
 /// lose 3–5 % (docs/PERFORMANCE.md).
 const PREFETCH_BYTES: usize = 8 << 20;
 
+/// The largest spread of the origins of a packet of rays from many points, in mean sizes of a leaf's
+/// box. Wider, most leaves the packet reaches are crossed by few of its rays, and the packet costs
+/// more than its rays one by one: measured on shadow rays, 4 does better than 1, 8 or 16 on
+/// dragon.p3f (docs/PERFORMANCE.md).
+const PACKET_SPREAD: f64 = 4.0;
+
 /// A BVH over primitives. Its triangles are walked by the fastest kernel the CPU runs
 /// ([`Bvh::kernel`]); every kernel finds the same hits (ties between primitives at one distance aside).
 ///
@@ -72,6 +78,10 @@ pub struct Bvh<P> {
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
+    /// The largest spread of origins (along any axis) with which rays from many points walk the
+    /// triangles as a packet ([`Accelerator::occluded_each_within`]): [`PACKET_SPREAD`] times the
+    /// mean size of a leaf's box.
+    packet_spread: f32,
 }
 
 impl<P: Intersect + Clone> Bvh<P> {
@@ -149,7 +159,11 @@ impl<P: Intersect + Clone> Bvh<P> {
             .map(Triangles::bounds)
             .chain(others.iter().map(|(t, _, _)| t.bounds()))
             .fold(Aabb::EMPTY, Aabb::union);
-        Self { triangles, others, unbounded, bounds }
+        let packet_spread = triangles.as_ref().map_or(0.0, |t| {
+            let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
+            (PACKET_SPREAD * t.leaf_bounds.iter().map(size).sum::<f64>() / t.leaf_bounds.len().max(1) as f64) as f32
+        });
+        Self { triangles, others, unbounded, bounds, packet_spread }
     }
 }
 
@@ -301,21 +315,66 @@ impl<P: Intersect> Bvh<P> {
         }
     }
 
-    /// [`Accelerator::occluded_each`] for a packet of rays with the directions' signs `negative`.
-    fn occluded_packet(&self, tris: &Triangles, rays: &[Ray], negative: [bool; 3], t_max: f32, occluded: &mut [bool]) {
-        // Planes first, as the single-ray query does; rays they occlude leave the walk.
-        let mut ends = [t_max; stream::PACKET];
-        for ((ray, o), end) in rays.iter().zip(occluded.iter_mut()).zip(&mut ends) {
-            *o = self.unbounded.iter().any(|(p, _)| p.occluded_canonical(ray, t_max));
-            if *o {
-                *end = f32::NEG_INFINITY;
+    /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`.
+    fn occluded_packet(
+        &self,
+        tris: &Triangles,
+        rays: &[Ray],
+        negative: [bool; 3],
+        t_max: &[f32],
+        occluded: &mut [bool],
+    ) {
+        // Planes first, as the single-ray query does; rays they occlude leave the walk, and so do rays
+        // with a NaN end, which nothing occludes.
+        let mut ends = [f32::NEG_INFINITY; stream::PACKET];
+        for (((ray, o), end), &t) in rays.iter().zip(occluded.iter_mut()).zip(&mut ends).zip(t_max) {
+            *o = !t.is_nan() && self.unbounded.iter().any(|(p, _)| p.occluded_canonical(ray, t));
+            if !*o && !t.is_nan() {
+                *end = t;
             }
         }
         tris.answer_packet(rays, negative, PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded });
         if self.others.is_some() {
-            for (ray, o) in rays.iter().zip(occluded) {
-                *o = *o || self.occluded_other(ray, t_max, &mut ());
+            for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {
+                *o = *o || (!t.is_nan() && self.occluded_other(ray, t, &mut ()));
             }
+        }
+    }
+}
+
+impl<P: Intersect + Sync + Send> Bvh<P> {
+    /// [`Accelerator::occluded_each_within`] for up to a packet of rays, walked as a packet if their
+    /// origins spread no more than `spread` along each axis.
+    fn occluded_chunk(&self, rays: &[Ray], t_max: &[f32], occluded: &mut [bool], spread: f32) {
+        let spread_ok = spread == f32::INFINITY || {
+            let (lo, hi) = rays
+                .iter()
+                .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
+            (hi - lo).max_element() <= spread
+        };
+        let Some(tris) = self.triangles.as_ref().filter(|_| spread_ok) else {
+            occluded_ray_by_ray(self, rays, t_max, occluded);
+            return;
+        };
+        if let Some(negative) = stream::canonical_signs(rays) {
+            self.occluded_packet(tris, rays, negative, t_max, occluded);
+            return;
+        }
+        let scaled = same_scale(rays);
+        let Some((canonical, s)) = &scaled else {
+            occluded_ray_by_ray(self, rays, t_max, occluded);
+            return;
+        };
+        let canonical = &canonical[..rays.len()];
+        match stream::common_signs(canonical) {
+            Some(negative) => {
+                let mut ends = [0.0; stream::PACKET];
+                for (end, &t) in ends.iter_mut().zip(t_max) {
+                    *end = Interval::new(0.0, t).on_canonical(*s).max;
+                }
+                self.occluded_packet(tris, canonical, negative, &ends[..rays.len()], occluded);
+            }
+            None => occluded_ray_by_ray(self, rays, t_max, occluded),
         }
     }
 }
@@ -406,28 +465,17 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
 
     fn occluded_each(&self, rays: &[Ray], t_max: f32, occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
+        let ends = [t_max; stream::PACKET];
         for (rays, occluded) in rays.chunks(stream::PACKET).zip(occluded.chunks_mut(stream::PACKET)) {
-            let Some(tris) = self.triangles.as_ref().filter(|_| !t_max.is_nan()) else {
-                occluded_ray_by_ray(self, rays, t_max, occluded);
-                continue;
-            };
-            if let Some(negative) = stream::canonical_signs(rays) {
-                self.occluded_packet(tris, rays, negative, t_max, occluded);
-                continue;
-            }
-            let scaled = same_scale(rays);
-            let Some((canonical, s)) = &scaled else {
-                occluded_ray_by_ray(self, rays, t_max, occluded);
-                continue;
-            };
-            let canonical = &canonical[..rays.len()];
-            match stream::common_signs(canonical) {
-                Some(negative) => {
-                    let t_max = Interval::new(0.0, t_max).on_canonical(*s).max;
-                    self.occluded_packet(tris, canonical, negative, t_max, occluded);
-                }
-                None => occluded_ray_by_ray(self, rays, t_max, occluded),
-            }
+            self.occluded_chunk(rays, &ends[..rays.len()], occluded, f32::INFINITY);
+        }
+    }
+
+    fn occluded_each_within(&self, rays: &[Ray], t_max: &[f32], occluded: &mut [bool]) {
+        assert!(rays.len() == t_max.len() && rays.len() == occluded.len(), "one end and one answer per ray");
+        let chunks = rays.chunks(stream::PACKET).zip(t_max.chunks(stream::PACKET));
+        for ((rays, t_max), occluded) in chunks.zip(occluded.chunks_mut(stream::PACKET)) {
+            self.occluded_chunk(rays, t_max, occluded, self.packet_spread);
         }
     }
 
