@@ -317,6 +317,11 @@ pub(crate) type ExrImage =
 
 /// Reads the first layer of the OpenEXR file at `path`, strictly (a truncated or damaged file is an error).
 pub(crate) fn read_exr(path: &Path) -> exr::error::Result<ExrImage> {
+    read_exr_from(std::io::BufReader::new(std::fs::File::open(path)?))
+}
+
+/// [`read_exr`] of an OpenEXR file's bytes from `reader`.
+fn read_exr_from(reader: impl std::io::Read + std::io::Seek + Send) -> exr::error::Result<ExrImage> {
     use exr::prelude::*;
     read()
         .no_deep_data()
@@ -326,7 +331,7 @@ pub(crate) fn read_exr(path: &Path) -> exr::error::Result<ExrImage> {
         .all_attributes()
         .pedantic()
         .non_parallel()
-        .from_file(path)
+        .from_buffered(reader)
 }
 
 /// The channels `NAME.R`, `NAME.G`, `NAME.B` of `layer` (`R`, `G`, `B` for an empty name) as colours,
@@ -499,16 +504,7 @@ fn read_part(path: &Path) -> Result<Part, Failure> {
             size.0, size.1, display.size.0, display.size.1
         )));
     }
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .pedantic()
-        .non_parallel()
-        .from_buffered(std::io::Cursor::new(bytes.as_slice()))
-        .map_err(exr_error)?;
+    let image = read_exr_from(std::io::Cursor::new(bytes.as_slice())).map_err(exr_error)?;
     let layer = &image.layer_data;
     let attribute = |name: &str| layer.attributes.other.get(&Text::from(name));
     let text = |name: &str| match attribute(name) {
