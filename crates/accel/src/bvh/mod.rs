@@ -35,7 +35,7 @@ use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
 use triangles::Leaf;
-use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use wide::{BoxRay, MAX_FIRST, NodeTest, WideNode, WideTree, leaf_range, leaf_ref, set_bits};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -45,6 +45,10 @@ const MAX_LEAF: usize = 4;
 /// own box, tested four at a time with its siblings', stands before its exact test, which costs many box
 /// tests (a sphere's is in f64).
 const SAH_LEAF: usize = 1;
+/// Most primitives other than triangles that queries test without walking their tree: their boxes,
+/// one per slot of a single node, tested together, then each shape whose box the ray meets. The walk's
+/// stack and the ordering of the children cost more than the tests they save on so few.
+const FLAT_OTHERS: usize = 4;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
@@ -75,6 +79,9 @@ const PACKET_SPREAD: f64 = 4.0;
 pub struct Bvh<P> {
     triangles: Option<Triangles>,
     others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
+    /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
+    /// primitive `i` of `others`, tested instead of walking their tree.
+    flat_others: Option<WideNode<4>>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
@@ -151,8 +158,19 @@ impl<P: Intersect + Clone> Bvh<P> {
             let bin = build_binary(&mut items, method, 1, SAH_LEAF);
             let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
-            let prims = ids.iter().map(|&i| prims[i as usize].clone()).collect();
+            let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
+        });
+        let flat_others = others.as_ref().filter(|(_, p, _)| p.len() <= FLAT_OTHERS).map(|_| {
+            let mut node = WideNode::EMPTY;
+            for (slot, item) in items.iter().enumerate() {
+                let (lo, hi) = (item.bounds.min.to_array(), item.bounds.max.to_array());
+                for a in 0..3 {
+                    node.bounds[2 * a][slot] = lo[a];
+                    node.bounds[2 * a + 1][slot] = hi[a];
+                }
+            }
+            node
         });
         let bounds = triangles
             .iter()
@@ -163,7 +181,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
             (PACKET_SPREAD * t.leaf_bounds.iter().map(size).sum::<f64>() / t.leaf_bounds.len().max(1) as f64) as f32
         });
-        Self { triangles, others, unbounded, bounds, packet_spread }
+        Self { triangles, others, flat_others, unbounded, bounds, packet_spread }
     }
 }
 
@@ -238,7 +256,24 @@ impl<P: Intersect> Bvh<P> {
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
             }
         }
-        if let Some((tree, prims, ids)) = &self.others {
+        if let (Some(node), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
+            // The walk's bound on box entries: a few ulps past the closest hit so far (see
+            // `WideTree::walk`).
+            let reach = |t: f32| t + t.abs() * (2.0 * raylume_geometry::gamma(3));
+            tally.visited();
+            let (near, mask) = BoxRay::new(ray).intersect(node, t_range.min, reach(t_range.max));
+            for slot in set_bits(mask) {
+                let i = slot as usize;
+                if near[i] > reach(t_range.max) {
+                    continue;
+                }
+                tally.tested();
+                if let Some(hit) = prims[i].intersect_canonical(ray, t_range) {
+                    t_range = t_range.with_max(hit.t);
+                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                }
+            }
+        } else if let Some((tree, prims, ids)) = &self.others {
             tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
@@ -259,6 +294,14 @@ impl<P: Intersect> Bvh<P> {
     #[inline(always)]
     fn occluded_other<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         let Some((tree, prims, _)) = &self.others else { return false };
+        if let Some(node) = &self.flat_others {
+            tally.visited();
+            let (_, mask) = BoxRay::new(ray).intersect(node, 0.0, t_max);
+            return set_bits(mask).any(|slot| {
+                tally.tested();
+                prims[slot as usize].occluded_canonical(ray, t_max)
+            });
+        }
         tree.any(&BoxRay::new(ray), t_max, tally, |leaf, tally| {
             let (first, count) = leaf_range(leaf);
             prims[first..first + count].iter().any(|p| {
