@@ -312,6 +312,15 @@ impl<P: Intersect> Bvh<P> {
     }
 }
 
+/// Whether the directions of `rays` (at least one) have the same sign along each axis, as their
+/// canonical forms then do (a power of two keeps the signs): rays whose signs differ never walk as a
+/// packet, and are not worth their canonical forms.
+#[inline]
+fn same_signs(rays: &[Ray]) -> bool {
+    let signs = rays[0].dir.cmplt(Vec3A::ZERO).bitmask();
+    rays.iter().all(|r| r.dir.cmplt(Vec3A::ZERO).bitmask() == signs)
+}
+
 /// The canonical forms of up to a packet of `rays` ([`Ray::canonical`]) and their common scale; `None`
 /// if a ray is not valid or the scales differ.
 fn same_scale(rays: &[Ray]) -> Option<([Ray; stream::PACKET], f32)> {
@@ -403,7 +412,7 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
             self.occluded_packet(tris, rays, negative, t_max, occluded);
             return;
         }
-        let scaled = same_scale(rays);
+        let scaled = if same_signs(rays) { same_scale(rays) } else { None };
         let Some((canonical, s)) = &scaled else {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
@@ -451,12 +460,10 @@ impl<P: Intersect> Bvh<P> {
         }) {
             return true;
         }
-        if let Some(tris) = &self.triangles
-            && tris.occluded(ray, t_max, tally)
-        {
+        if self.occluded_other(ray, t_max, tally) {
             return true;
         }
-        self.occluded_other(ray, t_max, tally)
+        self.triangles.as_ref().is_some_and(|tris| tris.occluded(ray, t_max, tally))
     }
 }
 
@@ -488,7 +495,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 self.closest_packet(tris, rays, negative, t_range, hits);
                 continue;
             }
-            let scaled = same_scale(rays);
+            let scaled = if same_signs(rays) { same_scale(rays) } else { None };
             let Some((canonical, s)) = &scaled else {
                 closest_ray_by_ray(self, rays, t_range, hits);
                 continue;
