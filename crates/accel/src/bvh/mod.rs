@@ -599,6 +599,44 @@ mod tests {
         }
     }
 
+    /// Up to [`FLAT_OTHERS`] shapes other than triangles are tested from one node of their boxes, more
+    /// through their tree; both answer every query as the tree's walk, bit for bit.
+    #[test]
+    fn a_few_other_shapes_answer_as_their_tree() {
+        let mut rng = Pcg32::new(5, 11);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        for n in 1..=FLAT_OTHERS + 1 {
+            let mut prims: Vec<Primitive> = (0..6)
+                .map(|_| {
+                    let c = point(4.0);
+                    Primitive::Triangle(Triangle::new(c, c + point(2.0), c + point(2.0)))
+                })
+                .collect();
+            // Overlapping spheres, so that rays meet several boxes and ties stay possible.
+            prims.extend((0..n).map(|_| {
+                Primitive::Sphere(raylume_geometry::Sphere { center: point(1.0), radius: 0.5 + point(0.5).x.abs() })
+            }));
+            let flat = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
+            assert_eq!(flat.flat_others.is_some(), n <= FLAT_OTHERS);
+            let walked = Bvh { flat_others: None, ..flat.clone() };
+            let mut hits = 0;
+            for _ in 0..4000 {
+                let origin = point(8.0);
+                let ray = Ray::new(origin, point(0.5) - origin);
+                let (a, b) = (flat.closest_hit(&ray, Interval::POSITIVE), walked.closest_hit(&ray, Interval::POSITIVE));
+                let bits =
+                    |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array()));
+                assert_eq!(bits(a), bits(b));
+                for t_max in [0.5, 3.0, f32::INFINITY] {
+                    assert_eq!(flat.occluded(&ray, t_max), walked.occluded(&ray, t_max));
+                }
+                hits += a.is_some_and(|h| h.primitive >= 6) as usize;
+            }
+            assert!(hits > 200, "the rays meet the spheres ({hits} hits of {n} spheres)");
+        }
+    }
+
     /// A walk that prefetches the next entry of its stack (as trees larger than [`PREFETCH_BYTES`] do)
     /// answers every query as the same tree without prefetches, bit for bit.
     #[test]
