@@ -82,6 +82,11 @@ pub struct Bvh<P> {
     /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
     /// primitive `i` of `others`, tested instead of walking their tree.
     flat_others: Option<WideNode<4>>,
+    /// Where other shapes lie outside the box around the triangles (or planes run past it): that box
+    /// in slot 0 (the other slots empty). Rays from those shapes, or bounded by their hits, often miss
+    /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
+    /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
+    triangles_box: Option<WideNode<4>>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
@@ -172,6 +177,19 @@ impl<P: Intersect + Clone> Bvh<P> {
             }
             node
         });
+        let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
+            let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
+            if unbounded.is_empty() && items.iter().all(inside) {
+                return None;
+            }
+            let mut node = WideNode::EMPTY;
+            let (lo, hi) = (b.min.to_array(), b.max.to_array());
+            for a in 0..3 {
+                node.bounds[2 * a][0] = lo[a];
+                node.bounds[2 * a + 1][0] = hi[a];
+            }
+            Some(node)
+        });
         let bounds = triangles
             .iter()
             .map(Triangles::bounds)
@@ -181,7 +199,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
             (PACKET_SPREAD * t.leaf_bounds.iter().map(size).sum::<f64>() / t.leaf_bounds.len().max(1) as f64) as f32
         });
-        Self { triangles, others, flat_others, unbounded, bounds, packet_spread }
+        Self { triangles, others, flat_others, triangles_box, unbounded, bounds, packet_spread }
     }
 }
 
@@ -443,7 +461,9 @@ impl<P: Intersect> Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(tris) = &self.triangles {
+        if let Some(tris) = &self.triangles
+            && self.may_meet_triangles(ray, t_range.min, t_range.max)
+        {
             if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
                 let (hit, primitive) = tris.hit(found);
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive });
@@ -463,7 +483,20 @@ impl<P: Intersect> Bvh<P> {
         if self.occluded_other(ray, t_max, tally) {
             return true;
         }
-        self.triangles.as_ref().is_some_and(|tris| tris.occluded(ray, t_max, tally))
+        self.triangles
+            .as_ref()
+            .is_some_and(|tris| self.may_meet_triangles(ray, 0.0, t_max) && tris.occluded(ray, t_max, tally))
+    }
+
+    /// Whether `ray` meets the box around the triangles within `[t_min, t_max]` (up to the few ulps
+    /// past `t_max` that the closest-hit walk reaches): the test the walk makes of the root's children,
+    /// on a box around all of them, so never `false` where the walk would reach a leaf.
+    /// Always `true` without the box ([`Bvh::triangles_box`]).
+    #[inline(always)]
+    fn may_meet_triangles(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let Some(node) = &self.triangles_box else { return true };
+        let reach = t_max + t_max.abs() * (2.0 * raylume_geometry::gamma(3));
+        BoxRay::new(ray).intersect(node, t_min, reach).1 != 0
     }
 }
 
@@ -619,7 +652,7 @@ mod tests {
             }));
             let flat = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
             assert_eq!(flat.flat_others.is_some(), n <= FLAT_OTHERS);
-            let walked = Bvh { flat_others: None, ..flat.clone() };
+            let walked = Bvh { flat_others: None, triangles_box: None, ..flat.clone() };
             let mut hits = 0;
             for _ in 0..4000 {
                 let origin = point(8.0);
@@ -635,6 +668,41 @@ mod tests {
             }
             assert!(hits > 200, "the rays meet the spheres ({hits} hits of {n} spheres)");
         }
+    }
+
+    /// Rays that miss the box around the triangles skip their walk where other shapes lie outside that
+    /// box, and every query answers as without the test, bit for bit.
+    #[test]
+    fn rays_missing_the_triangles_box_answer_as_with_the_walk() {
+        let mut rng = Pcg32::new(9, 11);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        // A floor of triangles below spheres.
+        let mut prims: Vec<Primitive> = (0..40)
+            .map(|_| {
+                let c = point(4.0) * Vec3A::new(1.0, 1.0, 0.1) - Vec3A::new(0.0, 0.0, 2.0);
+                Primitive::Triangle(Triangle::new(c, c + point(1.0), c + point(1.0)))
+            })
+            .collect();
+        prims.extend((0..6).map(|_| Primitive::Sphere(raylume_geometry::Sphere { center: point(1.5), radius: 0.6 })));
+        let tested = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
+        assert!(tested.triangles_box.is_some(), "the spheres lie outside the triangles' box");
+        let walked = Bvh { triangles_box: None, ..tested.clone() };
+        let mut hits = [0; 2];
+        for _ in 0..20_000 {
+            let origin = point(6.0);
+            let ray = Ray::new(origin, point(3.0) - origin);
+            let (a, b) = (tested.closest_hit(&ray, Interval::POSITIVE), walked.closest_hit(&ray, Interval::POSITIVE));
+            let bits = |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array()));
+            assert_eq!(bits(a), bits(b));
+            for t_max in [1.0, 5.0, f32::INFINITY] {
+                assert_eq!(tested.occluded(&ray, t_max), walked.occluded(&ray, t_max));
+            }
+            if let Some(h) = a {
+                hits[(h.primitive >= 40) as usize] += 1;
+            }
+        }
+        assert!(hits[0] > 1000 && hits[1] > 1000, "the rays meet both triangles and spheres: {hits:?}");
     }
 
     /// A walk that prefetches the next entry of its stack (as trees larger than [`PREFETCH_BYTES`] do)
