@@ -35,7 +35,7 @@ use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
 use triangles::Leaf;
-use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use wide::{BoxRay, MAX_FIRST, NodeTest, WideNode, WideTree, leaf_range, leaf_ref, set_bits};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -45,6 +45,10 @@ const MAX_LEAF: usize = 4;
 /// own box, tested four at a time with its siblings', stands before its exact test, which costs many box
 /// tests (a sphere's is in f64).
 const SAH_LEAF: usize = 1;
+/// Most primitives other than triangles that queries test without walking their tree: their boxes,
+/// one per slot of a single node, tested together, then each shape whose box the ray meets. The walk's
+/// stack and the ordering of the children cost more than the tests they save on so few.
+const FLAT_OTHERS: usize = 4;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
@@ -75,6 +79,14 @@ const PACKET_SPREAD: f64 = 4.0;
 pub struct Bvh<P> {
     triangles: Option<Triangles>,
     others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
+    /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
+    /// primitive `i` of `others`, tested instead of walking their tree.
+    flat_others: Option<WideNode<4>>,
+    /// Where other shapes lie outside the box around the triangles (or planes run past it): that box
+    /// in slot 0 (the other slots empty). Rays from those shapes, or bounded by their hits, often miss
+    /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
+    /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
+    triangles_box: Option<WideNode<4>>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
@@ -151,8 +163,32 @@ impl<P: Intersect + Clone> Bvh<P> {
             let bin = build_binary(&mut items, method, 1, SAH_LEAF);
             let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
-            let prims = ids.iter().map(|&i| prims[i as usize].clone()).collect();
+            let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
+        });
+        let flat_others = others.as_ref().filter(|(_, p, _)| p.len() <= FLAT_OTHERS).map(|_| {
+            let mut node = WideNode::EMPTY;
+            for (slot, item) in items.iter().enumerate() {
+                let (lo, hi) = (item.bounds.min.to_array(), item.bounds.max.to_array());
+                for a in 0..3 {
+                    node.bounds[2 * a][slot] = lo[a];
+                    node.bounds[2 * a + 1][slot] = hi[a];
+                }
+            }
+            node
+        });
+        let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
+            let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
+            if unbounded.is_empty() && items.iter().all(inside) {
+                return None;
+            }
+            let mut node = WideNode::EMPTY;
+            let (lo, hi) = (b.min.to_array(), b.max.to_array());
+            for a in 0..3 {
+                node.bounds[2 * a][0] = lo[a];
+                node.bounds[2 * a + 1][0] = hi[a];
+            }
+            Some(node)
         });
         let bounds = triangles
             .iter()
@@ -163,7 +199,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
             (PACKET_SPREAD * t.leaf_bounds.iter().map(size).sum::<f64>() / t.leaf_bounds.len().max(1) as f64) as f32
         });
-        Self { triangles, others, unbounded, bounds, packet_spread }
+        Self { triangles, others, flat_others, triangles_box, unbounded, bounds, packet_spread }
     }
 }
 
@@ -238,7 +274,24 @@ impl<P: Intersect> Bvh<P> {
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
             }
         }
-        if let Some((tree, prims, ids)) = &self.others {
+        if let (Some(node), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
+            // The walk's bound on box entries: a few ulps past the closest hit so far (see
+            // `WideTree::walk`).
+            let reach = |t: f32| t + t.abs() * (2.0 * raylume_geometry::gamma(3));
+            tally.visited();
+            let (near, mask) = BoxRay::new(ray).intersect(node, t_range.min, reach(t_range.max));
+            for slot in set_bits(mask) {
+                let i = slot as usize;
+                if near[i] > reach(t_range.max) {
+                    continue;
+                }
+                tally.tested();
+                if let Some(hit) = prims[i].intersect_canonical(ray, t_range) {
+                    t_range = t_range.with_max(hit.t);
+                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                }
+            }
+        } else if let Some((tree, prims, ids)) = &self.others {
             tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
@@ -259,6 +312,14 @@ impl<P: Intersect> Bvh<P> {
     #[inline(always)]
     fn occluded_other<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         let Some((tree, prims, _)) = &self.others else { return false };
+        if let Some(node) = &self.flat_others {
+            tally.visited();
+            let (_, mask) = BoxRay::new(ray).intersect(node, 0.0, t_max);
+            return set_bits(mask).any(|slot| {
+                tally.tested();
+                prims[slot as usize].occluded_canonical(ray, t_max)
+            });
+        }
         tree.any(&BoxRay::new(ray), t_max, tally, |leaf, tally| {
             let (first, count) = leaf_range(leaf);
             prims[first..first + count].iter().any(|p| {
@@ -267,6 +328,15 @@ impl<P: Intersect> Bvh<P> {
             })
         })
     }
+}
+
+/// Whether the directions of `rays` (at least one) have the same sign along each axis, as their
+/// canonical forms then do (a power of two keeps the signs): rays whose signs differ never walk as a
+/// packet, and are not worth their canonical forms.
+#[inline]
+fn same_signs(rays: &[Ray]) -> bool {
+    let signs = rays[0].dir.cmplt(Vec3A::ZERO).bitmask();
+    rays.iter().all(|r| r.dir.cmplt(Vec3A::ZERO).bitmask() == signs)
 }
 
 /// The canonical forms of up to a packet of `rays` ([`Ray::canonical`]) and their common scale; `None`
@@ -360,7 +430,7 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
             self.occluded_packet(tris, rays, negative, t_max, occluded);
             return;
         }
-        let scaled = same_scale(rays);
+        let scaled = if same_signs(rays) { same_scale(rays) } else { None };
         let Some((canonical, s)) = &scaled else {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
@@ -391,7 +461,9 @@ impl<P: Intersect> Bvh<P> {
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let Some(tris) = &self.triangles {
+        if let Some(tris) = &self.triangles
+            && self.may_meet_triangles(ray, t_range.min, t_range.max)
+        {
             if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
                 let (hit, primitive) = tris.hit(found);
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive });
@@ -408,12 +480,23 @@ impl<P: Intersect> Bvh<P> {
         }) {
             return true;
         }
-        if let Some(tris) = &self.triangles
-            && tris.occluded(ray, t_max, tally)
-        {
+        if self.occluded_other(ray, t_max, tally) {
             return true;
         }
-        self.occluded_other(ray, t_max, tally)
+        self.triangles
+            .as_ref()
+            .is_some_and(|tris| self.may_meet_triangles(ray, 0.0, t_max) && tris.occluded(ray, t_max, tally))
+    }
+
+    /// Whether `ray` meets the box around the triangles within `[t_min, t_max]` (up to the few ulps
+    /// past `t_max` that the closest-hit walk reaches): the test the walk makes of the root's children,
+    /// on a box around all of them, so never `false` where the walk would reach a leaf.
+    /// Always `true` without the box ([`Bvh::triangles_box`]).
+    #[inline(always)]
+    fn may_meet_triangles(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let Some(node) = &self.triangles_box else { return true };
+        let reach = t_max + t_max.abs() * (2.0 * raylume_geometry::gamma(3));
+        BoxRay::new(ray).intersect(node, t_min, reach).1 != 0
     }
 }
 
@@ -445,7 +528,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 self.closest_packet(tris, rays, negative, t_range, hits);
                 continue;
             }
-            let scaled = same_scale(rays);
+            let scaled = if same_signs(rays) { same_scale(rays) } else { None };
             let Some((canonical, s)) = &scaled else {
                 closest_ray_by_ray(self, rays, t_range, hits);
                 continue;
@@ -547,6 +630,79 @@ mod tests {
             ids[1] = ids[0];
             assert!(other.validate().is_err());
         }
+    }
+
+    /// Up to [`FLAT_OTHERS`] shapes other than triangles are tested from one node of their boxes, more
+    /// through their tree; both answer every query as the tree's walk, bit for bit.
+    #[test]
+    fn a_few_other_shapes_answer_as_their_tree() {
+        let mut rng = Pcg32::new(5, 11);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        for n in 1..=FLAT_OTHERS + 1 {
+            let mut prims: Vec<Primitive> = (0..6)
+                .map(|_| {
+                    let c = point(4.0);
+                    Primitive::Triangle(Triangle::new(c, c + point(2.0), c + point(2.0)))
+                })
+                .collect();
+            // Overlapping spheres, so that rays meet several boxes and ties stay possible.
+            prims.extend((0..n).map(|_| {
+                Primitive::Sphere(raylume_geometry::Sphere { center: point(1.0), radius: 0.5 + point(0.5).x.abs() })
+            }));
+            let flat = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
+            assert_eq!(flat.flat_others.is_some(), n <= FLAT_OTHERS);
+            let walked = Bvh { flat_others: None, triangles_box: None, ..flat.clone() };
+            let mut hits = 0;
+            for _ in 0..4000 {
+                let origin = point(8.0);
+                let ray = Ray::new(origin, point(0.5) - origin);
+                let (a, b) = (flat.closest_hit(&ray, Interval::POSITIVE), walked.closest_hit(&ray, Interval::POSITIVE));
+                let bits =
+                    |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array()));
+                assert_eq!(bits(a), bits(b));
+                for t_max in [0.5, 3.0, f32::INFINITY] {
+                    assert_eq!(flat.occluded(&ray, t_max), walked.occluded(&ray, t_max));
+                }
+                hits += a.is_some_and(|h| h.primitive >= 6) as usize;
+            }
+            assert!(hits > 200, "the rays meet the spheres ({hits} hits of {n} spheres)");
+        }
+    }
+
+    /// Rays that miss the box around the triangles skip their walk where other shapes lie outside that
+    /// box, and every query answers as without the test, bit for bit.
+    #[test]
+    fn rays_missing_the_triangles_box_answer_as_with_the_walk() {
+        let mut rng = Pcg32::new(9, 11);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        // A floor of triangles below spheres.
+        let mut prims: Vec<Primitive> = (0..40)
+            .map(|_| {
+                let c = point(4.0) * Vec3A::new(1.0, 1.0, 0.1) - Vec3A::new(0.0, 0.0, 2.0);
+                Primitive::Triangle(Triangle::new(c, c + point(1.0), c + point(1.0)))
+            })
+            .collect();
+        prims.extend((0..6).map(|_| Primitive::Sphere(raylume_geometry::Sphere { center: point(1.5), radius: 0.6 })));
+        let tested = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
+        assert!(tested.triangles_box.is_some(), "the spheres lie outside the triangles' box");
+        let walked = Bvh { triangles_box: None, ..tested.clone() };
+        let mut hits = [0; 2];
+        for _ in 0..20_000 {
+            let origin = point(6.0);
+            let ray = Ray::new(origin, point(3.0) - origin);
+            let (a, b) = (tested.closest_hit(&ray, Interval::POSITIVE), walked.closest_hit(&ray, Interval::POSITIVE));
+            let bits = |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array()));
+            assert_eq!(bits(a), bits(b));
+            for t_max in [1.0, 5.0, f32::INFINITY] {
+                assert_eq!(tested.occluded(&ray, t_max), walked.occluded(&ray, t_max));
+            }
+            if let Some(h) = a {
+                hits[(h.primitive >= 40) as usize] += 1;
+            }
+        }
+        assert!(hits[0] > 1000 && hits[1] > 1000, "the rays meet both triangles and spheres: {hits:?}");
     }
 
     /// A walk that prefetches the next entry of its stack (as trees larger than [`PREFETCH_BYTES`] do)
