@@ -6,6 +6,50 @@ use raylume_intersect::{Intersect, ShearedRay, TriangleHit, watertight_decide, w
 use crate::bvh::triangles::{LANES, Packet, candidates};
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
+/// A triangle every ray tests before its walk (a floor under a model), with its plane in f64 for
+/// [`DirectTriangle::behind`].
+#[derive(Clone, Copy, Debug)]
+struct DirectTriangle {
+    tri: Triangle,
+    /// The primitive index.
+    id: u32,
+    /// The first vertex, [`Triangle::normal64`], and the same cross product of the edges' magnitudes
+    /// (each term taken positive), which bounds its rounding.
+    p0: [f64; 3],
+    normal: [f64; 3],
+    magnitude: [f64; 3],
+}
+
+impl DirectTriangle {
+    fn new(tri: Triangle, id: u32) -> Self {
+        let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
+        let e1 = [0, 1, 2].map(|k| (p[1][k] - p[0][k]).abs());
+        let e2 = [0, 1, 2].map(|k| (p[2][k] - p[0][k]).abs());
+        let magnitude = [e1[1] * e2[2] + e1[2] * e2[1], e1[2] * e2[0] + e1[0] * e2[2], e1[0] * e2[1] + e1[1] * e2[0]];
+        Self { tri, id, p0: p[0], normal: tri.normal64(), magnitude }
+    }
+
+    /// Whether the ray's origin lies strictly on one side of the triangle's plane and its direction
+    /// strictly leads away from it, beyond the rounding of both products: its line then meets the
+    /// plane at `t < 0`, where the watertight test never reports a hit (a hit it decides in f32 has
+    /// `t` beyond the bound on its error, one it decides in f64 beyond that bound, so the exact
+    /// distance is positive). The bounds, a relative 2^-46 of the sums of magnitudes, exceed the few
+    /// f64 roundings of the normal, the offset and the sums many times over.
+    #[inline(always)]
+    fn behind(&self, ray: &Ray) -> bool {
+        let (o, d) = (ray.origin, ray.dir);
+        let q = [o.x as f64 - self.p0[0], o.y as f64 - self.p0[1], o.z as f64 - self.p0[2]];
+        let d = [d.x as f64, d.y as f64, d.z as f64];
+        let (n, m) = (&self.normal, &self.magnitude);
+        let side = n[0] * q[0] + n[1] * q[1] + n[2] * q[2];
+        let along = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+        const SLACK: f64 = 1.0 / (1u64 << 46) as f64;
+        let side_error = (m[0] * q[0].abs() + m[1] * q[1].abs() + m[2] * q[2].abs()) * SLACK;
+        let along_error = (m[0] * d[0].abs() + m[1] * d[1].abs() + m[2] * d[2].abs()) * SLACK;
+        (side > side_error && along > along_error) || (side < -side_error && along < -along_error)
+    }
+}
+
 /// How a [`Grid`] is sized.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridParams {
@@ -77,7 +121,7 @@ pub struct Grid<P> {
     prims: Vec<P>,
     /// The primitives every ray tests before its walk (unbounded ones and [`large_primitives`]): the
     /// triangles with their primitive index, and the indices of the others.
-    direct_triangles: Vec<(Triangle, u32)>,
+    direct_triangles: Vec<DirectTriangle>,
     direct_others: Vec<u32>,
     bounds: Aabb,
     cells: [usize; 3],
@@ -250,7 +294,7 @@ impl<P: Intersect> Grid<P> {
         let (mut direct_triangles, mut direct_others) = (Vec::new(), Vec::new());
         for &i in &direct_ids {
             match prims[i as usize].as_triangle() {
-                Some(t) => direct_triangles.push((t, i)),
+                Some(t) => direct_triangles.push(DirectTriangle::new(t, i)),
                 None => direct_others.push(i),
             }
         }
@@ -509,9 +553,11 @@ impl<P: Intersect> Grid<P> {
         let sheared = sheared.as_ref();
         let mut found = Closest { triangle: None, other: None };
         if let Some(sheared) = sheared {
-            for (tri, id) in &self.direct_triangles {
-                tally.tested();
-                found.triangle(tri, *id, sheared, &mut t_range);
+            for direct in &self.direct_triangles {
+                if !direct.behind(ray) {
+                    tally.tested();
+                    found.triangle(&direct.tri, direct.id, sheared, &mut t_range);
+                }
             }
         }
         for &id in &self.direct_others {
@@ -554,10 +600,12 @@ impl<P: Intersect> Grid<P> {
         let sheared = sheared.as_ref();
         let range = Interval::new(0.0, t_max);
         if let Some(sheared) = sheared {
-            for (tri, _) in &self.direct_triangles {
-                tally.tested();
-                if watertight_hits(tri, sheared, range) {
-                    return true;
+            for direct in &self.direct_triangles {
+                if !direct.behind(ray) {
+                    tally.tested();
+                    if watertight_hits(&direct.tri, sheared, range) {
+                        return true;
+                    }
                 }
             }
         }
@@ -622,5 +670,68 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
             + std::mem::size_of_val(self.direct_triangles.as_slice())
             + std::mem::size_of_val(self.direct_others.as_slice());
         AccelStats { nodes: self.cells.iter().product(), bytes, primitives: self.prims.len() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// Points with small integer coordinates (axis-aligned planes, origins on them) or any.
+    fn arb_point() -> impl Strategy<Value = Vec3A> {
+        prop_oneof![
+            prop::array::uniform3(-3i8..=3).prop_map(|a| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32)),
+            prop::array::uniform3(-10.0f32..10.0).prop_map(Vec3A::from_array),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The plane-side test never rules out a triangle the watertight test hits, rays starting on
+        /// its plane, an offset away from it, or anywhere.
+        #[test]
+        fn behind_keeps_every_hit(
+            v in prop::array::uniform3(arb_point()),
+            o in arb_point(),
+            target in arb_point(),
+            nudge in prop_oneof![Just(0.0f32), -1e-6f32..1e-6],
+            onto_plane in any::<bool>(),
+        ) {
+            let tri = Triangle::new(v[0], v[1], v[2]);
+            // Half the origins lie on the triangle's plane (up to f32), nudged off it.
+            let o = if onto_plane {
+                let (a, b) = (v[1] - v[0], v[2] - v[0]);
+                let n = a.cross(b);
+                prop_assume!(n.length_squared() > 0.0);
+                o - n * ((o - v[0]).dot(n) / n.length_squared()) + n.normalize() * nudge
+            } else {
+                o
+            };
+            let dir = target - o;
+            prop_assume!(dir != Vec3A::ZERO && o.is_finite());
+            let ray = Ray::new(o, dir);
+            let Some((canonical, _)) = ray.canonical() else { return Ok(()) };
+            let Some(sheared) = ShearedRay::new(&canonical) else { return Ok(()) };
+            let hit = watertight_decide(&tri, &sheared, Interval::new(0.0, f32::MAX)).is_some();
+            prop_assert!(!hit || !DirectTriangle::new(tri, 0).behind(&canonical));
+        }
+    }
+
+    /// Rays leaving a floor upwards, or passing above it upwards, are ruled out; rays towards it are not.
+    #[test]
+    fn behind_rules_out_rays_leaving_a_floor() {
+        let floor = DirectTriangle::new(
+            Triangle::new(Vec3A::new(-5.0, -1.0, -5.0), Vec3A::new(5.0, -1.0, 5.0), Vec3A::new(-5.0, -1.0, 5.0)),
+            0,
+        );
+        let up = Vec3A::new(0.3, 0.8, -0.1);
+        assert!(floor.behind(&Ray::new(Vec3A::new(0.5, (-1.0f32).next_up(), 0.5), up)));
+        assert!(floor.behind(&Ray::new(Vec3A::new(0.5, 2.0, 0.5), up)));
+        assert!(!floor.behind(&Ray::new(Vec3A::new(0.5, 2.0, 0.5), -up)));
+        // On the plane, or parallel to it: not ruled out.
+        assert!(!floor.behind(&Ray::new(Vec3A::new(0.5, -1.0, 0.5), up)));
+        assert!(!floor.behind(&Ray::new(Vec3A::new(0.5, 2.0, 0.5), Vec3A::X)));
     }
 }
