@@ -607,12 +607,9 @@ impl<P: Intersect> Grid<P> {
             self.closest_other(id, ray, &mut t_range, &mut found);
         }
         if let Some((few, ids)) = self.few_others.as_ref().filter(|_| FEW) {
-            few.closest(ray, &mut t_range, |slot, range| {
+            few.closest(ray, &mut t_range, |slot, t_range| {
                 tally.tested();
-                let id = ids[slot];
-                let hit = self.prims[id as usize].intersect_canonical(ray, range)?;
-                found.other = PrimitiveHit::closer(found.other, PrimitiveHit { hit, primitive: id });
-                Some(hit.t)
+                self.closest_other(ids[slot], ray, t_range, &mut found);
             });
             // Without triangles in the cells, no walk.
             if self.entries == 0 {

@@ -270,11 +270,12 @@ impl<P: Intersect> Bvh<P> {
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
             tally.visited();
-            flat.closest(ray, &mut t_range, |i, range| {
+            flat.closest(ray, &mut t_range, |i, t_range| {
                 tally.tested();
-                let hit = prims[i].intersect_canonical(ray, range)?;
-                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
-                Some(hit.t)
+                if let Some(hit) = prims[i].intersect_canonical(ray, *t_range) {
+                    *t_range = t_range.with_max(hit.t);
+                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                }
             });
         } else if let Some((tree, prims, ids)) = &self.others {
             tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {

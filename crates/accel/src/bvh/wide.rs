@@ -93,21 +93,20 @@ impl FewShapes {
 
     /// Tests, in slot order, each shape whose box the ray meets within `t_range` (up to the few ulps
     /// past its end that a walk reaches, see [`WideTree::walk`], so that a hit at the end's distance
-    /// still counts): `test(slot, range)` returns the distance of its hit within `range`, which then
-    /// narrows `t_range`.
+    /// still counts): `test(slot, t_range)` narrows `t_range` to the shape's hit within it.
     #[inline(always)]
-    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, mut test: impl FnMut(usize, Interval) -> Option<f32>) {
+    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
         let reach = |t: f32| t + t.abs() * (2.0 * gamma(3));
-        let (near, mask) = BoxRay::new(ray).intersect(&self.0, t_range.min, reach(t_range.max));
+        let mut range = *t_range;
+        let (near, mask) = BoxRay::new(ray).intersect(&self.0, range.min, reach(range.max));
         for slot in set_bits(mask) {
             let i = slot as usize;
-            if near[i] > reach(t_range.max) {
-                continue;
-            }
-            if let Some(t) = test(i, *t_range) {
-                *t_range = t_range.with_max(t);
+            // A slot in the mask has a near distance that is a number.
+            if near[i] <= reach(range.max) {
+                test(i, &mut range);
             }
         }
+        *t_range = range;
     }
 
     /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]`, tried in slot
