@@ -3,6 +3,7 @@
 use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec3A};
 use raylume_intersect::{Intersect, ShearedRay, TriangleHit, watertight_decide, watertight_hits};
 
+use crate::bvh::FewShapes;
 use crate::bvh::triangles::{LANES, Packet, candidates};
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
@@ -102,6 +103,10 @@ const MIN_ENTRY_BUDGET: u64 = 1 << 24;
 const MAX_LARGE: usize = 8;
 /// How much smaller in volume the box of the other primitives must be for them to be taken out.
 const LARGE_SHRINK: f64 = 8.0;
+/// Most bounded primitives other than triangles that rays test from one node of their boxes
+/// ([`FewShapes`]) rather than from the cells: the walk's setup and its mailbox cost more than the box
+/// tests they save on so few.
+const FEW_OTHERS: usize = FewShapes::MAX;
 /// Mailbox slots per ray (direct-mapped by primitive index).
 const MAILBOX: usize = 32;
 
@@ -123,6 +128,11 @@ pub struct Grid<P> {
     /// triangles with their primitive index, and the indices of the others.
     direct_triangles: Vec<DirectTriangle>,
     direct_others: Vec<u32>,
+    /// With at most [`FEW_OTHERS`] bounded primitives other than triangles (outside
+    /// `direct_others`): their boxes, and their indices in slot order (increasing), tested before the
+    /// walk instead of entered in the cells.
+    few_others: Option<(FewShapes, Vec<u32>)>,
+    /// The box of the cells, and of the few other shapes.
     bounds: Aabb,
     cells: [usize; 3],
     /// The lattice in f64: its corner, cell size and the size's reciprocal. Cells are entered and walked
@@ -260,10 +270,26 @@ impl<P: Intersect> Grid<P> {
         for i in &large {
             prim_bounds[*i as usize] = Aabb::EMPTY;
         }
+        let other_ids: Vec<u32> = (0..prims.len() as u32)
+            .filter(|&i| {
+                let b = &prim_bounds[i as usize];
+                b.is_finite() && !b.is_empty() && prims[i as usize].as_triangle().is_none()
+            })
+            .collect();
+        let few_others = (!other_ids.is_empty() && other_ids.len() <= FEW_OTHERS).then(|| {
+            let few = FewShapes::new(other_ids.iter().map(|&i| prim_bounds[i as usize]));
+            (few, other_ids)
+        });
+        let mut few_bounds = Aabb::EMPTY;
+        for &i in few_others.iter().flat_map(|(_, ids)| ids) {
+            few_bounds = few_bounds.union(prim_bounds[i as usize]);
+            prim_bounds[i as usize] = Aabb::EMPTY;
+        }
+        let few = few_others.as_ref().map_or(0, |(_, ids)| ids.len());
         for b in prim_bounds.iter().filter(|b| b.is_finite()) {
             bounds = bounds.union(*b);
         }
-        let bounded = prims.len() - direct_ids.len();
+        let bounded = prims.len() - direct_ids.len() - few;
         if bounds.is_empty() {
             bounds = Aabb::from_point(Vec3A::ZERO);
         }
@@ -302,7 +328,8 @@ impl<P: Intersect> Grid<P> {
             prims,
             direct_triangles,
             direct_others,
-            bounds,
+            few_others,
+            bounds: if few_bounds.is_empty() { bounds } else { bounds.union(few_bounds) },
             cells,
             corner,
             cell_size,
@@ -521,6 +548,16 @@ impl Closest {
             }
         }
     }
+
+    /// The closer of the two hits (the lower primitive index at one distance).
+    #[inline(always)]
+    fn answer(self) -> Option<PrimitiveHit> {
+        let triangle = self.triangle.map(|(h, tri, id)| PrimitiveHit { hit: h.hit(&tri), primitive: id });
+        match (triangle, self.other) {
+            (Some(t), other) => PrimitiveHit::closer(other, t),
+            (None, other) => other,
+        }
+    }
 }
 
 /// The lanes of `mask`, lowest first.
@@ -548,7 +585,12 @@ impl<P: Intersect> Grid<P> {
 
     /// [`Accelerator::closest_hit_tally`] of a canonical ray.
     #[inline(always)]
-    fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
+    fn closest_canonical<const FEW: bool, T: Tally>(
+        &self,
+        ray: &Ray,
+        mut t_range: Interval,
+        tally: &mut T,
+    ) -> Option<PrimitiveHit> {
         let sheared = ShearedRay::new(ray);
         let sheared = sheared.as_ref();
         let mut found = Closest { triangle: None, other: None };
@@ -563,6 +605,16 @@ impl<P: Intersect> Grid<P> {
         for &id in &self.direct_others {
             tally.tested();
             self.closest_other(id, ray, &mut t_range, &mut found);
+        }
+        if let Some((few, ids)) = self.few_others.as_ref().filter(|_| FEW) {
+            few.closest(ray, &mut t_range, |slot, t_range| {
+                tally.tested();
+                self.closest_other(ids[slot], ray, t_range, &mut found);
+            });
+            // Without triangles in the cells, no walk.
+            if self.entries == 0 {
+                return found.answer();
+            }
         }
         let mut mailbox = Mailbox::new(self.mailbox);
         let walked = self.walk(ray, t_range.min, t_range.max, |packets, used, others| {
@@ -586,16 +638,12 @@ impl<P: Intersect> Grid<P> {
             t_range.max
         });
         (0..walked).for_each(|_| tally.visited());
-        let triangle = found.triangle.map(|(h, tri, id)| PrimitiveHit { hit: h.hit(&tri), primitive: id });
-        match (triangle, found.other) {
-            (Some(t), other) => PrimitiveHit::closer(other, t),
-            (None, other) => other,
-        }
+        found.answer()
     }
 
     /// [`Accelerator::occluded_tally`] of a canonical ray.
     #[inline(always)]
-    fn occluded_canonical<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
+    fn occluded_canonical<const FEW: bool, T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         let sheared = ShearedRay::new(ray);
         let sheared = sheared.as_ref();
         let range = Interval::new(0.0, t_max);
@@ -613,6 +661,15 @@ impl<P: Intersect> Grid<P> {
             tally.tested();
             if self.prims[id as usize].occluded_canonical(ray, t_max) {
                 return true;
+            }
+        }
+        if let Some((few, ids)) = self.few_others.as_ref().filter(|_| FEW) {
+            let occluded = few.any(ray, t_max, |slot| {
+                tally.tested();
+                self.prims[ids[slot] as usize].occluded_canonical(ray, t_max)
+            });
+            if occluded || self.entries == 0 {
+                return occluded;
             }
         }
         let mut mailbox = Mailbox::new(self.mailbox);
@@ -650,11 +707,26 @@ impl<P: Intersect> Grid<P> {
 
 impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
     fn closest_hit_tally<T: Tally>(&self, ray: &Ray, t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        crate::closest_on_canonical(ray, t_range, |ray, t_range| self.closest_canonical(ray, t_range, tally))
+        // Grids without the few other shapes query without their test.
+        if self.few_others.is_some() {
+            crate::closest_on_canonical(ray, t_range, |ray, t_range| {
+                self.closest_canonical::<true, T>(ray, t_range, tally)
+            })
+        } else {
+            crate::closest_on_canonical(ray, t_range, |ray, t_range| {
+                self.closest_canonical::<false, T>(ray, t_range, tally)
+            })
+        }
     }
 
     fn occluded_tally<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
-        crate::occluded_on_canonical(ray, t_max, |ray, t_max| self.occluded_canonical(ray, t_max, tally))
+        if self.few_others.is_some() {
+            crate::occluded_on_canonical(ray, t_max, |ray, t_max| self.occluded_canonical::<true, T>(ray, t_max, tally))
+        } else {
+            crate::occluded_on_canonical(ray, t_max, |ray, t_max| {
+                self.occluded_canonical::<false, T>(ray, t_max, tally)
+            })
+        }
     }
 
     fn bounds(&self) -> Aabb {
@@ -668,7 +740,11 @@ impl<P: Intersect + Sync + Send> Accelerator for Grid<P> {
             + std::mem::size_of_val(self.used.as_slice())
             + std::mem::size_of_val(self.others.as_slice())
             + std::mem::size_of_val(self.direct_triangles.as_slice())
-            + std::mem::size_of_val(self.direct_others.as_slice());
+            + std::mem::size_of_val(self.direct_others.as_slice())
+            + self
+                .few_others
+                .as_ref()
+                .map_or(0, |(few, ids)| std::mem::size_of_val(few) + std::mem::size_of_val(ids.as_slice()));
         AccelStats { nodes: self.cells.iter().product(), bytes, primitives: self.prims.len() }
     }
 }
@@ -716,6 +792,66 @@ mod tests {
             let Some(sheared) = ShearedRay::new(&canonical) else { return Ok(()) };
             let hit = watertight_decide(&tri, &sheared, Interval::new(0.0, f32::MAX)).is_some();
             prop_assert!(!hit || !DirectTriangle::new(tri, 0).behind(&canonical));
+        }
+    }
+
+    /// Up to [`FEW_OTHERS`] bounded shapes other than triangles are tested from one node of their boxes
+    /// rather than from the cells (with no walk where no triangle is left in them); more go to the
+    /// cells. Every query answers as brute force, bit for bit, ties between identical spheres included.
+    #[test]
+    fn a_few_other_shapes_answer_as_brute_force() {
+        use rand_core::Rng;
+        use raylume_geometry::{AaBox, Sphere};
+        use raylume_intersect::Primitive;
+
+        use crate::BruteForce;
+
+        let mut rng = rand_pcg::Pcg32::new(21, 5);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        // Small triangles among the shapes, or a floor under them (tested directly, leaving the cells empty).
+        for floor in [false, true] {
+            for n in 1..=FEW_OTHERS + 1 {
+                let mut prims: Vec<Primitive> = if floor {
+                    let [a, b, c, d] = [(-20.0, -20.0), (20.0, -20.0), (20.0, 20.0), (-20.0, 20.0)]
+                        .map(|(x, z)| Vec3A::new(x, -6.0, z));
+                    vec![Primitive::Triangle(Triangle::new(a, b, c)), Primitive::Triangle(Triangle::new(a, c, d))]
+                } else {
+                    (0..6)
+                        .map(|_| {
+                            let c = point(4.0);
+                            Primitive::Triangle(Triangle::new(c, c + point(1.0), c + point(1.0)))
+                        })
+                        .collect()
+                };
+                let triangles = prims.len();
+                // Overlapping shapes, the first sphere twice (a tie at every hit), a box among them.
+                let first = Sphere { center: point(1.0), radius: 0.5 + point(0.5).x.abs() };
+                prims.extend((0..n).map(|i| match i {
+                    0 | 1 => Primitive::Sphere(first),
+                    2 => Primitive::Box(AaBox { bounds: Aabb::new(point(1.0), Vec3A::splat(1.5)) }),
+                    _ => Primitive::Sphere(Sphere { center: point(1.0), radius: 0.5 + point(0.5).x.abs() }),
+                }));
+                let grid = Grid::new(prims.clone(), Interval::new(0.0, 0.0), GridParams::default());
+                assert_eq!(grid.few_others.is_some(), n <= FEW_OTHERS, "floor {floor}, {n} shapes");
+                assert_eq!(grid.entries() == 0, floor && n <= FEW_OTHERS);
+                let brute = BruteForce::new(prims.clone());
+                let mut hits = 0;
+                for _ in 0..4000 {
+                    let origin = point(6.0);
+                    let ray = Ray::new(origin, point(0.5) - origin);
+                    let (a, b) =
+                        (grid.closest_hit(&ray, Interval::POSITIVE), brute.closest_hit(&ray, Interval::POSITIVE));
+                    let bits =
+                        |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array()));
+                    assert_eq!(bits(a), bits(b), "floor {floor}, {n} other shapes, {ray:?}");
+                    for t_max in [0.5, 3.0, f32::INFINITY] {
+                        assert_eq!(grid.occluded(&ray, t_max), brute.occluded(&ray, t_max));
+                    }
+                    hits += a.is_some_and(|h| h.primitive >= triangles as u32) as usize;
+                }
+                assert!(hits > 200, "the rays meet the other shapes ({hits} hits of {n} shapes)");
+            }
         }
     }
 

@@ -35,7 +35,8 @@ use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
 use triangles::Leaf;
-use wide::{BoxRay, MAX_FIRST, NodeTest, WideNode, WideTree, leaf_range, leaf_ref, set_bits};
+pub(crate) use wide::FewShapes;
+use wide::{BoxRay, MAX_FIRST, NodeTest, WideNode, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -48,7 +49,7 @@ const SAH_LEAF: usize = 1;
 /// Most primitives other than triangles that queries test without walking their tree: their boxes,
 /// one per slot of a single node, tested together, then each shape whose box the ray meets. The walk's
 /// stack and the ordering of the children cost more than the tests they save on so few.
-const FLAT_OTHERS: usize = 4;
+const FLAT_OTHERS: usize = FewShapes::MAX;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
@@ -81,7 +82,7 @@ pub struct Bvh<P> {
     others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
     /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
     /// primitive `i` of `others`, tested instead of walking their tree.
-    flat_others: Option<WideNode<4>>,
+    flat_others: Option<FewShapes>,
     /// Where other shapes lie outside the box around the triangles (or planes run past it): that box
     /// in slot 0 (the other slots empty). Rays from those shapes, or bounded by their hits, often miss
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
@@ -166,17 +167,10 @@ impl<P: Intersect + Clone> Bvh<P> {
             let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
         });
-        let flat_others = others.as_ref().filter(|(_, p, _)| p.len() <= FLAT_OTHERS).map(|_| {
-            let mut node = WideNode::EMPTY;
-            for (slot, item) in items.iter().enumerate() {
-                let (lo, hi) = (item.bounds.min.to_array(), item.bounds.max.to_array());
-                for a in 0..3 {
-                    node.bounds[2 * a][slot] = lo[a];
-                    node.bounds[2 * a + 1][slot] = hi[a];
-                }
-            }
-            node
-        });
+        let flat_others = others
+            .as_ref()
+            .filter(|(_, p, _)| p.len() <= FLAT_OTHERS)
+            .map(|_| FewShapes::new(items.iter().map(|item| item.bounds)));
         let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
             let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
             if unbounded.is_empty() && items.iter().all(inside) {
@@ -274,23 +268,15 @@ impl<P: Intersect> Bvh<P> {
                 best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
             }
         }
-        if let (Some(node), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
-            // The walk's bound on box entries: a few ulps past the closest hit so far (see
-            // `WideTree::walk`).
-            let reach = |t: f32| t + t.abs() * (2.0 * raylume_geometry::gamma(3));
+        if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
             tally.visited();
-            let (near, mask) = BoxRay::new(ray).intersect(node, t_range.min, reach(t_range.max));
-            for slot in set_bits(mask) {
-                let i = slot as usize;
-                if near[i] > reach(t_range.max) {
-                    continue;
-                }
+            flat.closest(ray, &mut t_range, |i, t_range| {
                 tally.tested();
-                if let Some(hit) = prims[i].intersect_canonical(ray, t_range) {
-                    t_range = t_range.with_max(hit.t);
+                if let Some(hit) = prims[i].intersect_canonical(ray, *t_range) {
+                    *t_range = t_range.with_max(hit.t);
                     best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
                 }
-            }
+            });
         } else if let Some((tree, prims, ids)) = &self.others {
             tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {
                 let (first, count) = leaf_range(leaf);
@@ -312,12 +298,11 @@ impl<P: Intersect> Bvh<P> {
     #[inline(always)]
     fn occluded_other<T: Tally>(&self, ray: &Ray, t_max: f32, tally: &mut T) -> bool {
         let Some((tree, prims, _)) = &self.others else { return false };
-        if let Some(node) = &self.flat_others {
+        if let Some(flat) = &self.flat_others {
             tally.visited();
-            let (_, mask) = BoxRay::new(ray).intersect(node, 0.0, t_max);
-            return set_bits(mask).any(|slot| {
+            return flat.any(ray, t_max, |i| {
                 tally.tested();
-                prims[slot as usize].occluded_canonical(ray, t_max)
+                prims[i].occluded_canonical(ray, t_max)
             });
         }
         tree.any(&BoxRay::new(ray), t_max, tally, |leaf, tally| {

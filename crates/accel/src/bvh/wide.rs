@@ -2,7 +2,7 @@
 //! the binary build, and the ordered traversal shared by both widths and every kind of leaf.
 
 use glam::Vec4;
-use raylume_geometry::{Aabb, Ray, Vec3A, gamma};
+use raylume_geometry::{Aabb, Interval, Ray, Vec3A, gamma};
 
 use super::build::Node;
 use crate::Tally;
@@ -65,6 +65,57 @@ impl<const W: usize> WideNode<W> {
         ],
         child: [EMPTY; W],
     };
+}
+
+/// The boxes of a few shapes (at most four), one per slot of a single node, tested by a ray at once,
+/// then each shape whose box the ray meets tested exactly: for so few shapes, cheaper than a walk of
+/// their tree, or of the cells of a grid, and exact as either (the box test is conservative).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FewShapes(WideNode<4>);
+
+impl FewShapes {
+    /// The most shapes one node holds.
+    pub const MAX: usize = 4;
+
+    /// The node of `boxes` (at most [`FewShapes::MAX`]), slot `i` holding box `i`.
+    pub fn new(boxes: impl IntoIterator<Item = Aabb>) -> Self {
+        let mut node = WideNode::EMPTY;
+        for (slot, b) in boxes.into_iter().enumerate() {
+            assert!(slot < Self::MAX, "at most {} shapes", Self::MAX);
+            let (lo, hi) = (b.min.to_array(), b.max.to_array());
+            for a in 0..3 {
+                node.bounds[2 * a][slot] = lo[a];
+                node.bounds[2 * a + 1][slot] = hi[a];
+            }
+        }
+        Self(node)
+    }
+
+    /// Tests, in slot order, each shape whose box the ray meets within `t_range` (up to the few ulps
+    /// past its end that a walk reaches, see [`WideTree::walk`], so that a hit at the end's distance
+    /// still counts): `test(slot, t_range)` narrows `t_range` to the shape's hit within it.
+    #[inline(always)]
+    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
+        let reach = |t: f32| t + t.abs() * (2.0 * gamma(3));
+        let mut range = *t_range;
+        let (near, mask) = BoxRay::new(ray).intersect(&self.0, range.min, reach(range.max));
+        for slot in set_bits(mask) {
+            let i = slot as usize;
+            // A slot in the mask has a near distance that is a number.
+            if near[i] <= reach(range.max) {
+                test(i, &mut range);
+            }
+        }
+        *t_range = range;
+    }
+
+    /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]`, tried in slot
+    /// order.
+    #[inline(always)]
+    pub fn any(&self, ray: &Ray, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
+        let (_, mask) = BoxRay::new(ray).intersect(&self.0, 0.0, t_max);
+        set_bits(mask).map(|slot| slot as usize).any(test)
+    }
 }
 
 /// A leaf reference's first item and count.
