@@ -8,7 +8,7 @@
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
-use std::arch::x86_64::{__m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
+use std::arch::x86_64::{__m128, __m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
@@ -454,34 +454,29 @@ fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
     !rejected & ((1 << count) - 1)
 }
 
-/// The any-hit verdict of a leaf's lanes, decided in AVX registers: `hit`, lanes the scalar watertight
-/// test accepts; `open`, candidates it must decide itself (an edge function within its rounding error
-/// of zero, or a distance too close to a bound to call). Every other lane is one the scalar test
-/// rejects. With them, each lane's distance interval, the bound on its error and the reciprocal of its
-/// determinant (the barycentrics' scale), meaningful in the `hit` lanes.
+/// The any-hit verdict of a leaf's lanes, decided in AVX registers with the operations of the scalar
+/// watertight test: `hit`, lanes the scalar test accepts; `open`, candidates it must decide itself
+/// (an edge function within its rounding error of zero, or a distance too close to call in f32).
+/// Every other lane is one the scalar test rejects.
+/// With them, each lane's distance (rounded from f64, as the scalar test's), the bound on its error
+/// and the reciprocal of its determinant (the barycentrics' scale), meaningful in the `hit` lanes.
 #[derive(Clone, Copy, Debug)]
 struct Verdict {
     hit: u32,
     open: u32,
-    /// Bounds on the distance the scalar test forms (the f64 quotient rounded to f32) from an f32
-    /// quotient and its error bound: `t.0 <= t <= t.1`.
-    t: (__m256, __m256),
+    t: __m256,
     delta_t: __m256,
     inv: __m256,
 }
 
 /// The [`Verdict`] of the `candidates` lanes of a leaf whose triangles all have a unit normal (the BVH
 /// leaves out those without), of edge functions `e`, for `ray` within `range`.
-///
-/// The scalar test forms the distance `t` in f64 and rounds it to f32; the verdict forms it in f32 with
-/// a bound on the difference, and decides a lane only where every comparison the scalar test makes
-/// with `t` (correctly rounded, hence monotonic in `t`) comes out alike at both ends of that interval.
 #[inline(always)]
 fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interval) -> Verdict {
     let avx = simd.avx;
     // Lanes the vector test decides: every edge function beyond its error bound (the scalar test
     // recomputes the others in f64), so none is NaN either (a NaN among the maxima below would be taken
-    // where `f32::max` skips it), and all three of one sign.
+    // where `f32::max` skips it).
     let zero = avx._mm256_setzero_ps();
     let sign = avx._mm256_set1_ps(-0.0);
     let certain = |x: __m256, err: __m256| avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_andnot_ps(sign, x), err);
@@ -489,108 +484,102 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     let sure = avx._mm256_and_ps(avx._mm256_and_ps(certain(e.u, eu), certain(e.v, ev)), certain(e.w, ew));
     let decided = candidates & avx._mm256_movemask_ps(sure) as u32;
     if decided == 0 {
-        return Verdict { hit: 0, open: candidates, t: (zero, zero), delta_t: zero, inv: zero };
+        return Verdict { hit: 0, open: candidates, t: zero, delta_t: zero, inv: zero };
     }
     let sz = avx._mm256_set1_ps(ray.shear[2]);
     let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
     let det = avx._mm256_add_ps(avx._mm256_add_ps(e.u, e.v), e.w);
-    let abs = |x: __m256| avx._mm256_andnot_ps(sign, x);
-    let splat = |x: f32| avx._mm256_set1_ps(x);
-    // The distance in f32 and a bound on its difference from the scalar test's. With u, v, w of one
-    // sign, |det| rounds with relative error γ(2); the numerator, a sum of three products, with γ(3)
-    // of the sum s of their magnitudes (and subnormal products with an absolute error below
-    // f32::MIN_POSITIVE); the quotient and the scalar test's rounding of its own add an ulp each.
-    // γ(12) of |t| + s / |det| covers all of it with room for the rounding of the bound itself.
-    let (pu, pv, pw) = (avx._mm256_mul_ps(e.u, az), avx._mm256_mul_ps(e.v, bz), avx._mm256_mul_ps(e.w, cz));
-    let t = avx._mm256_div_ps(avx._mm256_add_ps(avx._mm256_add_ps(pu, pv), pw), det);
-    let s = avx._mm256_add_ps(avx._mm256_add_ps(abs(pu), abs(pv)), abs(pw));
-    let inv = avx._mm256_div_ps(splat(1.0), det);
-    let abs_inv = abs(inv);
-    let margin = avx._mm256_add_ps(
-        avx._mm256_mul_ps(splat(gamma(12)), avx._mm256_add_ps(abs(t), avx._mm256_mul_ps(s, abs_inv))),
-        avx._mm256_add_ps(avx._mm256_mul_ps(splat(4.0 * f32::MIN_POSITIVE), abs_inv), splat(f32::MIN_POSITIVE)),
-    );
-    let (lo, hi) = (avx._mm256_sub_ps(t, margin), avx._mm256_add_ps(t, margin));
+    // The distance in f64 from the exact products, then rounded to f32, as the scalar test forms it.
+    macro_rules! distance {
+        ($half:ident) => {{
+            let wide = |x: __m256| avx._mm256_cvtps_pd($half(avx, x));
+            let (u, v, w) = (wide(e.u), wide(e.v), wide(e.w));
+            let num = avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(u, wide(az)), avx._mm256_mul_pd(v, wide(bz))),
+                avx._mm256_mul_pd(w, wide(cz)),
+            );
+            avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, avx._mm256_add_pd(avx._mm256_add_pd(u, v), w)))
+        }};
+    }
+    let t = avx._mm256_set_m128(distance!(high), distance!(low));
     // pbrt-v4's bound on the error of t, as the scalar test computes it.
+    let abs = |x: __m256| avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), x);
     let max3 = |[a, b, c]: [__m256; 3]| avx._mm256_max_ps(avx._mm256_max_ps(abs(a), abs(b)), abs(c));
+    let splat = |x: f32| avx._mm256_set1_ps(x);
     let (max_zt, max_xt, max_yt) = (max3([az, bz, cz]), max3(e.x), max3(e.y));
     let delta_z = avx._mm256_mul_ps(splat(gamma(3)), max_zt);
     let delta_x = avx._mm256_mul_ps(splat(gamma(5)), avx._mm256_add_ps(max_xt, max_zt));
     let delta_y = avx._mm256_mul_ps(splat(gamma(5)), avx._mm256_add_ps(max_yt, max_zt));
     let delta_e = error_term(avx, 2.0, (gamma(2), [max_xt, max_yt]), [delta_y, max_xt], [delta_x, max_yt]);
     let max_e = max3([e.u, e.v, e.w]);
-    let delta_t = avx
-        ._mm256_mul_ps(error_term(avx, 3.0, (gamma(3), [max_e, max_zt]), [delta_e, max_zt], [delta_z, max_e]), abs_inv);
-    let (min, max) = (splat(range.min), splat(range.max));
-    let mask = |x: __m256| avx._mm256_movemask_ps(x) as u32;
-    let or = |a: __m256, b: __m256| avx._mm256_or_ps(a, b);
-    let and = |a: __m256, b: __m256| avx._mm256_and_ps(a, b);
-    // The scalar test rejects a lane whose determinant is not finite (it is not zero: the edge
-    // functions are non-zero and of one sign) or whose distance is out of the range by more than its
-    // error bound (`t - delta_t > max || t + delta_t < min`; a NaN bound rejects nothing): here where
-    // that holds at the end of the interval that makes it hardest.
-    let out_at = |low: __m256, high: __m256| {
-        or(
-            avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_sub_ps(low, delta_t), max),
-            avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_add_ps(high, delta_t), min),
-        )
-    };
-    let not_finite_det = avx._mm256_cmp_ps::<_CMP_NLT_UQ>(abs(det), splat(f32::INFINITY));
-    let rejected = decided & mask(or(out_at(lo, hi), not_finite_det));
-    // It accepts one that is not out of the range (at either end), whose distance is beyond its error
-    // bound and within the range: every comparison true at both ends (a NaN compares false).
-    let finite = |x: __m256| avx._mm256_cmp_ps::<_CMP_LT_OQ>(abs(x), splat(f32::INFINITY));
-    let in_range = and(
-        and(avx._mm256_cmp_ps::<_CMP_GE_OQ>(lo, min), avx._mm256_cmp_ps::<_CMP_LE_OQ>(hi, max)),
-        and(finite(lo), finite(hi)),
+    let inv = avx._mm256_div_ps(splat(1.0), det);
+    let delta_t = avx._mm256_mul_ps(
+        error_term(avx, 3.0, (gamma(3), [max_e, max_zt]), [delta_e, max_zt], [delta_z, max_e]),
+        abs(inv),
     );
-    let beyond = avx._mm256_cmp_ps::<_CMP_GT_OQ>(lo, delta_t);
-    let maybe_out = out_at(hi, lo);
-    let hit = decided & mask(and(and(in_range, beyond), finite(det))) & !mask(maybe_out) & !rejected;
-    Verdict { hit, open: candidates & !hit & !rejected, t: (lo, hi), delta_t, inv }
+    let finite = |x: __m256| avx._mm256_cmp_ps::<_CMP_LT_OQ>(abs(x), splat(f32::INFINITY));
+    let in_range = avx._mm256_and_ps(
+        avx._mm256_and_ps(
+            avx._mm256_cmp_ps::<_CMP_GE_OQ>(t, splat(range.min)),
+            avx._mm256_cmp_ps::<_CMP_LE_OQ>(t, splat(range.max)),
+        ),
+        finite(t),
+    );
+    // The scalar test rejects a lane whose determinant is not finite (it is not zero: the edge functions
+    // are non-zero and of one sign) or whose distance is out of the range by more than its error bound;
+    // it accepts one whose distance is in the range and beyond the error bound (a NaN bound compares
+    // false: the f64 distance decides).
+    let out = avx._mm256_or_ps(
+        avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_sub_ps(t, delta_t), splat(range.max)),
+        avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_add_ps(t, delta_t), splat(range.min)),
+    );
+    let rejected = decided
+        & avx
+            ._mm256_movemask_ps(avx._mm256_or_ps(out, avx._mm256_cmp_ps::<_CMP_NLT_UQ>(abs(det), splat(f32::INFINITY))))
+            as u32;
+    let beyond = avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t)) as u32;
+    let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
+    let hit = decided & kept & beyond & !rejected;
+    Verdict { hit, open: candidates & !hit & !rejected, t, delta_t, inv }
 }
 
 /// [`Filter::closest_of_candidates`] with the lanes' verdict, distance and barycentrics from AVX
 /// registers: the candidates are taken in turn as the scalar loop takes them, the scalar test run for
 /// the lanes the verdict leaves open, and an accepted lane's distance and barycentrics those the scalar
 /// test reports (its distance from [`decided_distances`]; a lane beyond the narrowed range by more than
-/// its error bound is one the scalar test rejects; one too close to that bound to call, or whose plane
-/// distance is not finite, goes to the scalar test), so the answer is the scalar loop's, bit for bit.
+/// its error bound is one the scalar test rejects), so the answer is the scalar loop's, bit for bit.
 #[inline(always)]
 fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
     let avx = simd.avx;
     let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
-    let Verdict { hit, open, t: (lo, hi), delta_t, inv } = verdict(simd, e, test.lanes, ray, range);
+    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, e, test.lanes, ray, range);
     if hit == 0 {
         return closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
-    let (plane, finite) = decided_distances(simd, leaf, ray);
-    let plane: [f32; 8] = pulp::cast(plane);
-    let (lo, hi, delta_t): ([f32; 8], [f32; 8], [f32; 8]) = (pulp::cast(lo), pulp::cast(hi), pulp::cast(delta_t));
+    let decided: [f32; 8] = pulp::cast(decided_distances(simd, leaf, ray, t));
+    let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
     let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
     for bit in set_bits(hit | open) {
         let i = bit as usize;
-        if (open | !finite) & (1 << bit) != 0 {
+        if open & (1 << bit) != 0 {
             test.decide(bit, &mut range);
-        } else if hi[i] - delta_t[i] <= range.max {
-            let t = plane[i];
+        } else if t[i] - delta_t[i] <= range.max {
+            let t = decided[i];
             if range.contains(t) && t > 0.0 {
                 test.keep(bit, TriangleHit { t, b: [b[0][i], b[1][i], b[2][i]] }, &mut range);
             }
-        } else if lo[i] - delta_t[i] <= range.max {
-            test.decide(bit, &mut range);
         }
     }
     range.max
 }
 
-/// The distances to the vertices' planes of every lane of `leaf`, as
-/// [`decided_distance`](raylume_intersect::decided_distance) forms them, with the scalar routine's
-/// operations in its order, four lanes at a time in f64 (the triangle's `normal64`, then the distance
-/// to its plane), and the mask of lanes where that distance is finite in f32 (elsewhere the scalar test
-/// reports its own distance). Every lane is formed, so the distances do not wait for the verdict's.
+/// [`decided_distance`](raylume_intersect::decided_distance) of every lane of `leaf` whose f32 distance
+/// is `t`, with the scalar routine's operations in its order, four lanes at a time in f64: the
+/// triangle's `normal64`, the distance to its plane, and `t` where that distance is not finite in f32
+/// (a zero denominator makes it infinite or NaN). Every lane is formed, so the distances do not wait
+/// for the verdict's lanes.
 #[inline(always)]
-fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> (__m256, u32) {
+fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256) -> __m256 {
     let avx = simd.avx;
     let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
     let (ox, oy, oz) =
@@ -638,7 +627,7 @@ fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> (__m256, u32) {
         avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), plane),
         avx._mm256_set1_ps(f32::INFINITY),
     );
-    (plane, avx._mm256_movemask_ps(finite) as u32)
+    avx._mm256_blendv_ps(t, plane, finite)
 }
 
 /// `k * ((c * x * y + p * q) + r * s)` for `(c, [x, y])`, `[p, q]`, `[r, s]`: the shape of both terms of
@@ -654,6 +643,17 @@ fn error_term(
     let first = avx._mm256_mul_ps(avx._mm256_mul_ps(avx._mm256_set1_ps(c), x), y);
     let sum = avx._mm256_add_ps(avx._mm256_add_ps(first, avx._mm256_mul_ps(p, q)), avx._mm256_mul_ps(r, s));
     avx._mm256_mul_ps(avx._mm256_set1_ps(k), sum)
+}
+
+/// The low and high four lanes of a vector.
+#[inline(always)]
+fn low(avx: pulp::core_arch::x86::Avx, x: __m256) -> __m128 {
+    avx._mm256_castps256_ps128(x)
+}
+
+#[inline(always)]
+fn high(avx: pulp::core_arch::x86::Avx, x: __m256) -> __m128 {
+    avx._mm256_extractf128_ps::<1>(x)
 }
 
 /// Starts loading every cache line of `item` into all levels of the cache.
