@@ -23,11 +23,9 @@ struct DirectTriangle {
 
 impl DirectTriangle {
     fn new(tri: Triangle, id: u32) -> Self {
-        let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-        let e1 = [0, 1, 2].map(|k| (p[1][k] - p[0][k]).abs());
-        let e2 = [0, 1, 2].map(|k| (p[2][k] - p[0][k]).abs());
-        let magnitude = [e1[1] * e2[2] + e1[2] * e2[1], e1[2] * e2[0] + e1[0] * e2[2], e1[0] * e2[1] + e1[1] * e2[0]];
-        Self { tri, id, p0: p[0], normal: tri.normal64(), magnitude }
+        let p0 = tri.p[0];
+        let p0 = [p0.x as f64, p0.y as f64, p0.z as f64];
+        Self { tri, id, p0, normal: tri.normal64(), magnitude: raylume_intersect::normal64_magnitude(&tri) }
     }
 
     /// Whether the ray's origin lies strictly on one side of the triangle's plane and its direction
@@ -754,14 +752,8 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-
-    /// Points with small integer coordinates (axis-aligned planes, origins on them) or any.
-    fn arb_point() -> impl Strategy<Value = Vec3A> {
-        prop_oneof![
-            prop::array::uniform3(-3i8..=3).prop_map(|a| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32)),
-            prop::array::uniform3(-10.0f32..10.0).prop_map(Vec3A::from_array),
-        ]
-    }
+    // Small integer coordinates make axis-aligned planes and origins on them common.
+    use crate::bvh::triangles::tests::arb_point;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]

@@ -261,7 +261,7 @@ pub fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
 /// The magnitudes `|e1| x |e2|` (each term of the cross product taken positive) that bound the
 /// rounding of [`Triangle::normal64`]'s components.
 #[inline(always)]
-fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
+pub fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
     let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
     let e1 = [0, 1, 2].map(|k| (p[1][k] - p[0][k]).abs());
     let e2 = [0, 1, 2].map(|k| (p[2][k] - p[0][k]).abs());

@@ -36,7 +36,7 @@ use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
 use triangles::Leaf;
 pub(crate) use wide::FewShapes;
-use wide::{BoxRay, MAX_FIRST, NodeTest, WideNode, WideTree, leaf_range, leaf_ref};
+use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -83,11 +83,11 @@ pub struct Bvh<P> {
     /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
     /// primitive `i` of `others`, tested instead of walking their tree.
     flat_others: Option<FewShapes>,
-    /// Where other shapes lie outside the box around the triangles (or planes run past it): that box
-    /// in slot 0 (the other slots empty). Rays from those shapes, or bounded by their hits, often miss
+    /// Where other shapes lie outside the box around the triangles (or planes run past it): that box,
+    /// as a node of one shape. Rays from those shapes, or bounded by their hits, often miss
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
     /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
-    triangles_box: Option<WideNode<4>>,
+    triangles_box: Option<FewShapes>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
@@ -176,13 +176,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             if unbounded.is_empty() && items.iter().all(inside) {
                 return None;
             }
-            let mut node = WideNode::EMPTY;
-            let (lo, hi) = (b.min.to_array(), b.max.to_array());
-            for a in 0..3 {
-                node.bounds[2 * a][0] = lo[a];
-                node.bounds[2 * a + 1][0] = hi[a];
-            }
-            Some(node)
+            Some(FewShapes::new([b]))
         });
         let bounds = triangles
             .iter()
@@ -479,9 +473,7 @@ impl<P: Intersect> Bvh<P> {
     /// Always `true` without the box ([`Bvh::triangles_box`]).
     #[inline(always)]
     fn may_meet_triangles(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        let Some(node) = &self.triangles_box else { return true };
-        let reach = t_max + t_max.abs() * (2.0 * raylume_geometry::gamma(3));
-        BoxRay::new(ray).intersect(node, t_min, reach).1 != 0
+        self.triangles_box.as_ref().is_none_or(|b| b.meets(ray, t_min, t_max))
     }
 }
 

@@ -131,7 +131,7 @@ pub(crate) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+pub(crate) mod tests {
     use proptest::prelude::*;
     use raylume_geometry::{Interval, Ray};
     use raylume_intersect::watertight_decide;

@@ -67,6 +67,14 @@ impl<const W: usize> WideNode<W> {
     };
 }
 
+/// How far past the closest hit so far, at distance `t`, a closest-hit walk tests boxes and keeps
+/// entries: a box's entry distance rounds, and a primitive at the very distance of the hit (a tie the
+/// lowest index wins) must still be reached.
+#[inline(always)]
+pub(crate) fn reach(t: f32) -> f32 {
+    t + t.abs() * (2.0 * gamma(3))
+}
+
 /// The boxes of a few shapes (at most four), one per slot of a single node, tested by a ray at once,
 /// then each shape whose box the ray meets tested exactly: for so few shapes, cheaper than a walk of
 /// their tree, or of the cells of a grid, and exact as either (the box test is conservative).
@@ -96,7 +104,6 @@ impl FewShapes {
     /// still counts): `test(slot, t_range)` narrows `t_range` to the shape's hit within it.
     #[inline(always)]
     pub fn closest(&self, ray: &Ray, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
-        let reach = |t: f32| t + t.abs() * (2.0 * gamma(3));
         let mut range = *t_range;
         let (near, mask) = BoxRay::new(ray).intersect(&self.0, range.min, reach(range.max));
         for slot in set_bits(mask) {
@@ -107,6 +114,12 @@ impl FewShapes {
             }
         }
         *t_range = range;
+    }
+
+    /// Whether the ray meets a box within `[t_min, reach(t_max)]`.
+    #[inline(always)]
+    pub fn meets(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        BoxRay::new(ray).intersect(&self.0, t_min, reach(t_max)).1 != 0
     }
 
     /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]`, tried in slot
@@ -494,10 +507,8 @@ impl<const W: usize> WideTree<W> {
         // Down to the first node with two children or more, no stack is needed: many rays (those that
         // miss the mesh near its silhouette) end on that path, and clearing a stack is a large part
         // of their cost.
-        // Boxes are tested, and entries kept, up to a few ulps past the closest hit so far: a box's entry
-        // distance rounds, and a primitive at the very distance of the hit (a tie the lowest index wins)
-        // must still be reached.
-        let reach = |t: f32| if ANY { t } else { t + t.abs() * (2.0 * gamma(3)) };
+        // Boxes are tested, and entries kept, up to the `reach` of the closest hit so far.
+        let reach = |t: f32| if ANY { t } else { reach(t) };
         let mut end = reach(t_max);
         let mut cur = self.root;
         let (near, mask) = loop {
