@@ -18,8 +18,8 @@ pub use primitive::Primitive;
 use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec2, Vec3A};
 pub use shapes::intersect_moller_trumbore;
 pub use watertight::{
-    ShearedRay, TriangleHit, decided_distance, edge_error, has_unit_normal, intersect_watertight, normal64_magnitude,
-    unit_normal, watertight_decide, watertight_hits,
+    ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit, decided_distance, edge_error, has_unit_normal,
+    intersect_watertight, normal64_magnitude, unit_normal, watertight_decide, watertight_hits,
 };
 
 /// Where a ray meets a surface.

@@ -185,12 +185,12 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     }
     let (az, bz, cz) = (sz * a_z, sz * b_z, sz * c_z);
     let inv = 1.0 / det;
-    // t in f64 from the exact products: the same t whatever the order of the vertices.
-    let t = ((u as f64 * az as f64 + v as f64 * bz as f64 + w as f64 * cz as f64) / (u as f64 + v as f64 + w as f64))
-        as f32;
+    let t = (u * az + v * bz + w * cz) * inv;
     let delta_t = distance_error([ax, bx, cx], [ay, by, cy], [az, bz, cz], [u, v, w], inv);
-    // Out of the range even with the error of t (a NaN bound rejects nothing here).
-    if t - delta_t > t_range.max || t + delta_t < t_range.min {
+    // Where `t` or its bound overflowed (or the bound is NaN), only the f64 plane distance decides.
+    let bounded = t.is_finite() && delta_t.is_finite();
+    // Out of the range even with the error of t.
+    if bounded && (t - delta_t > t_range.max || t + delta_t < t_range.min) {
         return None;
     }
     // The plane through the vertices, in f64: a degenerate triangle (collinear in f32) has none.
@@ -198,7 +198,7 @@ fn decide<const REFINE: bool>(tri: &Triangle, ray: &ShearedRay, t_range: Interva
     if !is_plane_normal(n) {
         return None;
     }
-    let t = if t > delta_t {
+    let t = if bounded && t > delta_t {
         if REFINE { plane_distance64(tri, n, ray).map_or(t, |t| t as f32) } else { t }
     } else {
         // Too close to call in f32 (needles and tiny triangles far away have error bounds larger than
@@ -225,8 +225,10 @@ pub fn decided_distance(tri: &Triangle, ray: &ShearedRay, t: f32) -> f32 {
     plane_distance64(tri, tri.normal64(), ray).map_or(t, |t| t as f32)
 }
 
-/// pbrt-v4's bound on the error of the distance `t` the test forms from the sheared vertices and the
-/// edge functions: a hit closer than it may be the surface the ray left.
+/// pbrt-v4's bound on the error of the distance `t = (u az + v bz + w cz) / det` the test forms in f32
+/// from the sheared vertices and the edge functions: a hit closer than it may be the surface the ray
+/// left. pbrt's relative terms assume no result falls below the normal range; the absolute terms
+/// `2^-120` inside (which `|inv|` scales as it scales `t`) and `2^-140` outside cover those that do.
 #[inline(always)]
 fn distance_error(x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [f32; 3], inv: f32) -> f32 {
     let max3 = |v: [f32; 3]| v[0].abs().max(v[1].abs()).max(v[2].abs());
@@ -235,8 +237,17 @@ fn distance_error(x: [f32; 3], y: [f32; 3], z: [f32; 3], e: [f32; 3], inv: f32) 
     let delta_x = gamma(5) * (max_xt + max_zt);
     let delta_y = gamma(5) * (max_yt + max_zt);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs()
+    let relative = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e);
+    (relative + TINY_TERM * (1.0 + max_zt)) * inv.abs() + TINY_DISTANCE
 }
+
+/// The absolute term `2^-120` inside the triangle test's distance bound, scaled by `|1 / det|` as
+/// the distance is: it covers the products below f32's normal range (vector kernels that form the
+/// bound themselves use it too).
+pub const TINY_TERM: f32 = f32::from_bits(7 << 23);
+/// The absolute term `2^-140` added to the triangle test's distance bound: it covers a distance or a
+/// bound that itself falls below f32's normal range.
+pub const TINY_DISTANCE: f32 = f32::from_bits(1 << 9);
 
 /// Whether the watertight test can hit `tri` at all: a triangle whose vertices are collinear (or
 /// not finite) has no unit normal and is never hit, so accelerators may leave it out. The normal is

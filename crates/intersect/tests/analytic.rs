@@ -246,6 +246,43 @@ proptest! {
         prop_assert!(dist <= allowed, "point {dist:e} off the plane, bound {allowed:e}");
     }
 
+    /// Triangles of 2^-56..2^-40 near the origin, whose edge functions times sheared distances fall
+    /// below f32's normal range: a range ending or starting 1e-4 t before or after the f64 plane
+    /// distance keeps or loses the hit accordingly, and the ray sent back from the hit (spawned past its
+    /// error bound) does not hit the triangle again.
+    #[test]
+    fn tiny_triangles_keep_their_ranges(a in finite_vec(1.0), b in finite_vec(1.0), c in finite_vec(1.0), exp in -56i32..-40,
+                                        u in 0.05f32..0.9, w in 0.05f32..0.9, o in finite_vec(1.0)) {
+        let scale = 2f32.powi(exp);
+        let (u, w) = if u + w > 0.95 { (u * 0.5, w * 0.5) } else { (u, w) };
+        prop_assume!((b - a).cross(c - a).length() > 1e-2);
+        let tri = Triangle::new(a * scale, b * scale, c * scale);
+        let target = tri.p[0] * (1.0 - u - w) + tri.p[1] * u + tri.p[2] * w;
+        let origin = target + o.normalize_or(Vec3A::Z) * (3.0 * scale);
+        let ray = Ray::new(origin, (target - origin).normalize());
+        let n = normal64(&tri);
+        let d = ray.dir.to_array().map(f64::from);
+        let cos: f64 = (0..3).map(|k| n[k] * d[k]).sum();
+        prop_assume!(cos.abs() > 0.05);
+        let p0 = tri.p[0].to_array().map(f64::from);
+        let o64 = ray.origin.to_array().map(f64::from);
+        let t_ref = (0..3).map(|k| n[k] * (p0[k] - o64[k])).sum::<f64>() / cos;
+        let Some(h) = tri.intersect(&ray, Interval::POSITIVE) else {
+            // Aimed well inside, but the rounded ray may pass an edge of a tiny triangle.
+            return Ok(());
+        };
+        prop_assert!((h.t as f64 - t_ref).abs() <= 4.0 * U * t_ref, "t {} vs {}", h.t, t_ref);
+        let at = |k: f64| (t_ref * k) as f32;
+        prop_assert!(tri.intersect(&ray, Interval::new(0.0, at(1.0 + 1e-4))).is_some());
+        prop_assert!(tri.intersect(&ray, Interval::new(at(1.0 - 1e-4), f32::INFINITY)).is_some());
+        prop_assert!(tri.intersect(&ray, Interval::new(0.0, at(1.0 - 1e-4))).is_none());
+        prop_assert!(tri.intersect(&ray, Interval::new(at(1.0 + 1e-4), f32::INFINITY)).is_none());
+        // Sent back from the hit point moved off the surface past its error bound, on the side it came from.
+        let side = if h.normal.dot(ray.dir) < 0.0 { h.normal } else { -h.normal };
+        let back = Ray::new(raylume_geometry::offset_ray_origin(h.point, h.error, side), -ray.dir);
+        prop_assert!(tri.intersect(&back, Interval::POSITIVE).is_none(), "the ray leaving the hit hits again");
+    }
+
     /// Two triangles sharing an edge: a ray through any f32 point of the edge hits at least one.
     #[test]
     fn watertight_never_leaks_on_a_shared_edge(a in finite_vec(10.0), b in finite_vec(10.0), c in finite_vec(10.0), e in finite_vec(10.0),
