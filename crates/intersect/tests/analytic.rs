@@ -197,6 +197,22 @@ fn normal64(t: &Triangle) -> [f64; 3] {
 
 const U: f64 = 1.0 / (1u64 << 24) as f64;
 
+/// The ray from `3 scale` away along `o` to the point of barycentrics `(1 - u - w, u, w)` of `tri`,
+/// with `tri`'s f64 unit normal, the f64 direction, the cosine of incidence and the distance to the
+/// plane in f64 (the reference `t`).
+fn aimed_ray(tri: &Triangle, (u, w): (f32, f32), o: Vec3A, scale: f32) -> (Ray, [f64; 3], [f64; 3], f64, f64) {
+    let target = tri.p[0] * (1.0 - u - w) + tri.p[1] * u + tri.p[2] * w;
+    let origin = target + o.normalize_or(Vec3A::Z) * (3.0 * scale);
+    let ray = Ray::new(origin, (target - origin).normalize());
+    let n = normal64(tri);
+    let d = ray.dir.to_array().map(f64::from);
+    let cos: f64 = (0..3).map(|k| n[k] * d[k]).sum();
+    let p0 = tri.p[0].to_array().map(f64::from);
+    let o64 = ray.origin.to_array().map(f64::from);
+    let t_ref = (0..3).map(|k| n[k] * (p0[k] - o64[k])).sum::<f64>() / cos;
+    (ray, n, d, cos, t_ref)
+}
+
 fn log_uniform(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
     (lo..hi).prop_map(|e| 10f32.powf(e))
 }
@@ -211,16 +227,9 @@ proptest! {
         let (u, w) = if u + w > 0.95 { (u * 0.5, w * 0.5) } else { (u, w) };
         let tri = Triangle::new(shift + a * scale, shift + b * scale, shift + c * scale);
         prop_assume!(tri.normal().length() > 1e-2 * scale * scale);
-        let target = tri.p[0] * (1.0 - u - w) + tri.p[1] * u + tri.p[2] * w;
-        let origin = target + o.normalize_or(Vec3A::Z) * (3.0 * scale);
-        let ray = Ray::new(origin, (target - origin).normalize());
-        let n = normal64(&tri);
-        let d = ray.dir.to_array().map(f64::from);
-        let cos: f64 = (0..3).map(|k| n[k] * d[k]).sum();
+        let (ray, n, d, cos, t_ref) = aimed_ray(&tri, (u, w), o, scale);
         prop_assume!(cos.abs() > 0.05);
-        let p0 = tri.p[0].to_array().map(f64::from);
-        let o64 = ray.origin.to_array().map(f64::from);
-        let t_ref = (0..3).map(|k| n[k] * (p0[k] - o64[k])).sum::<f64>() / cos;
+        let (p0, o64) = (tri.p[0].to_array().map(f64::from), ray.origin.to_array().map(f64::from));
         // Whether the f32 ray (its origin and direction rounded) passes inside, by f64 barycentrics.
         let x = [o64[0] + t_ref * d[0], o64[1] + t_ref * d[1], o64[2] + t_ref * d[2]];
         let p = tri.p.map(|v| v.to_array().map(f64::from));
@@ -257,16 +266,8 @@ proptest! {
         let (u, w) = if u + w > 0.95 { (u * 0.5, w * 0.5) } else { (u, w) };
         prop_assume!((b - a).cross(c - a).length() > 1e-2);
         let tri = Triangle::new(a * scale, b * scale, c * scale);
-        let target = tri.p[0] * (1.0 - u - w) + tri.p[1] * u + tri.p[2] * w;
-        let origin = target + o.normalize_or(Vec3A::Z) * (3.0 * scale);
-        let ray = Ray::new(origin, (target - origin).normalize());
-        let n = normal64(&tri);
-        let d = ray.dir.to_array().map(f64::from);
-        let cos: f64 = (0..3).map(|k| n[k] * d[k]).sum();
+        let (ray, _, _, cos, t_ref) = aimed_ray(&tri, (u, w), o, scale);
         prop_assume!(cos.abs() > 0.05);
-        let p0 = tri.p[0].to_array().map(f64::from);
-        let o64 = ray.origin.to_array().map(f64::from);
-        let t_ref = (0..3).map(|k| n[k] * (p0[k] - o64[k])).sum::<f64>() / cos;
         let Some(h) = tri.intersect(&ray, Interval::POSITIVE) else {
             // Aimed well inside, but the rounded ray may pass an edge of a tiny triangle.
             return Ok(());
