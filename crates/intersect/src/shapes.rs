@@ -113,10 +113,13 @@ fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
     let q = -(half_b + disc.sqrt().copysign(half_b));
     let (t0, t1) = (c / q, q / a);
     let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-    // Hits at t <= 0 are the surface the ray starts on, never reported.
-    if t0 > 0.0 && range.contains(t0) {
+    // Hits at t <= 0 are the surface the ray starts on, never reported. `t > 0 && range.contains(t)`
+    // as three comparisons: a positive `t` is finite and at most `range.max` when at most `last`.
+    let last = if range.max == f32::INFINITY { f32::MAX } else { range.max };
+    let ahead = |t: f32| t > 0.0 && t >= range.min && t <= last;
+    if ahead(t0) {
         Root::At(t0)
-    } else if t1 > 0.0 && range.contains(t1) {
+    } else if ahead(t1) {
         Root::At(t1)
     } else {
         Root::Miss
