@@ -259,7 +259,7 @@ impl<P: Intersect> Bvh<P> {
             tally.tested();
             if let Some(hit) = p.intersect_canonical(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
+                keep_closer(&mut best, PrimitiveHit { hit, primitive: *id });
             }
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
@@ -268,7 +268,7 @@ impl<P: Intersect> Bvh<P> {
                 tally.tested();
                 if let Some(hit) = prims[i].intersect_canonical(ray, *t_range) {
                     *t_range = t_range.with_max(hit.t);
-                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                    keep_closer(&mut best, PrimitiveHit { hit, primitive: ids[i] });
                 }
             });
         } else if let Some((tree, prims, ids)) = &self.others {
@@ -279,7 +279,7 @@ impl<P: Intersect> Bvh<P> {
                     tally.tested();
                     if let Some(hit) = prims[i].intersect_canonical(ray, range) {
                         range = range.with_max(hit.t);
-                        best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                        keep_closer(&mut best, PrimitiveHit { hit, primitive: ids[i] });
                     }
                 }
                 range.max
@@ -306,6 +306,15 @@ impl<P: Intersect> Bvh<P> {
                 p.occluded_canonical(ray, t_max)
             })
         })
+    }
+}
+
+/// [`PrimitiveHit::closer`] in place: `best` becomes `candidate` if it beats it, and is left as it is
+/// otherwise (no copy of the hit it holds).
+#[inline(always)]
+fn keep_closer(best: &mut Option<PrimitiveHit>, candidate: PrimitiveHit) {
+    if best.as_ref().is_none_or(|b| candidate.beats(b)) {
+        *best = Some(candidate);
     }
 }
 
