@@ -267,14 +267,24 @@ fn shadow_ray(above: Vec3A, n: Vec3A, target: Vec3A, time: f32) -> Option<(Ray, 
 pub struct BatchBuffers {
     /// Each sample's surface, if its camera ray hit one.
     surfaces: Vec<Option<Surface>>,
-    /// The shadow rays to one light, their ends, and the samples they belong to.
+    /// The shadow rays to one light, their ends, and the samples they belong to, in their first slots
+    /// (one slot per sample).
     rays: Vec<Ray>,
     ends: Vec<f32>,
     owners: Vec<u32>,
     answers: Vec<bool>,
     /// At `i * lights + l`: the direction from sample `i`'s surface to the point light `l` if that
-    /// light reaches it, else zero.
+    /// light reaches it, else zero (slots of area lights, and past the batch, hold stale values).
     lit: Vec<Vec3A>,
+}
+
+/// Makes `buffer` at least `len` long (with `fill`), never shorter: its slots are written before
+/// they are read.
+#[inline]
+fn grow<T: Clone>(buffer: &mut Vec<T>, len: usize, fill: T) {
+    if buffer.len() < len {
+        buffer.resize(len, fill);
+    }
 }
 
 /// Tries to draw a fuzzy reflection direction at most this many times before absorbing the ray.
@@ -338,28 +348,33 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         let BatchBuffers { surfaces, rays: shadow, ends, owners, answers, lit } = buffers;
         surfaces.clear();
         surfaces.extend(rays.iter().zip(firsts).map(|(ray, first)| first.map(|f| surface(world, ray, &f))));
-        lit.clear();
-        lit.resize(count * lights, Vec3A::ZERO);
+        // Every slot is written below (those of area lights are never read): the buffers only grow,
+        // and the shadow rays of a light fill their first slots.
+        grow(lit, count * lights, Vec3A::ZERO);
+        grow(shadow, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
+        grow(ends, count, 0.0);
+        grow(owners, count, 0);
         for (l, light) in world.lights.iter().enumerate() {
             if SOFT != SoftShadows::NONE && light.is_area() {
                 continue;
             }
-            shadow.clear();
-            ends.clear();
-            owners.clear();
+            let mut traced = 0;
             for (i, (s, ray)) in surfaces.iter().zip(rays).enumerate() {
+                lit[i * lights + l] = Vec3A::ZERO;
                 if let Some(s) = s
                     && let Some((r, dist)) = shadow_ray(s.above, s.n, light.centre(), ray.time)
                 {
-                    shadow.push(r);
-                    ends.push(dist);
-                    owners.push(i as u32);
+                    shadow[traced] = r;
+                    ends[traced] = dist;
+                    owners[traced] = i as u32;
+                    traced += 1;
                 }
             }
+            let (shadow, ends, owners) = (&shadow[..traced], &ends[..traced], &owners[..traced]);
             answers.clear();
-            answers.resize(shadow.len(), false);
+            answers.resize(traced, false);
             world.accel.occluded_each_within(shadow, ends, answers);
-            stats.shadow += shadow.len() as u64;
+            stats.shadow += traced as u64;
             for ((&i, &occluded), ray) in owners.iter().zip(answers.iter()).zip(shadow.iter()) {
                 if !occluded {
                     lit[i as usize * lights + l] = ray.dir;
