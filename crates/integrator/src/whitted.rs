@@ -273,8 +273,9 @@ pub struct BatchBuffers {
     ends: Vec<f32>,
     owners: Vec<u32>,
     answers: Vec<bool>,
-    /// At `i * lights + l`: the direction from sample `i`'s surface to the point light `l` if that
-    /// light reaches it, else zero (slots of area lights, and past the batch, hold stale values).
+    /// At `l * count + i` (`count` samples): the direction from sample `i`'s surface to the point light
+    /// `l` if that light reaches it, else zero (slots of area lights, and past the batch, hold stale
+    /// values).
     lit: Vec<Vec3A>,
 }
 
@@ -358,15 +359,18 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
             if SOFT != SoftShadows::NONE && light.is_area() {
                 continue;
             }
+            let lit = &mut lit[l * count..(l + 1) * count];
+            let mut slots = shadow.iter_mut().zip(ends.iter_mut()).zip(owners.iter_mut());
             let mut traced = 0;
-            for (i, (s, ray)) in surfaces.iter().zip(rays).enumerate() {
-                lit[i * lights + l] = Vec3A::ZERO;
+            for (i, ((s, ray), dir)) in surfaces.iter().zip(rays).zip(lit.iter_mut()).enumerate() {
+                *dir = Vec3A::ZERO;
                 if let Some(s) = s
                     && let Some((r, dist)) = shadow_ray(s.above, s.n, light.centre(), ray.time)
                 {
-                    shadow[traced] = r;
-                    ends[traced] = dist;
-                    owners[traced] = i as u32;
+                    let Some(((ray_slot, end_slot), owner_slot)) = slots.next() else {
+                        unreachable!("a slot per sample")
+                    };
+                    (*ray_slot, *end_slot, *owner_slot) = (r, dist, i as u32);
                     traced += 1;
                 }
             }
@@ -377,16 +381,17 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
             stats.shadow += traced as u64;
             for ((&i, &occluded), ray) in owners.iter().zip(answers.iter()).zip(shadow.iter()) {
                 if !occluded {
-                    lit[i as usize * lights + l] = ray.dir;
+                    lit[i as usize] = ray.dir;
                 }
             }
         }
-        for (i, ((ray, s), sample)) in rays.iter().zip(surfaces.iter()).zip(samples).enumerate() {
-            colors[i] = match s {
+        let samples = rays.iter().zip(surfaces.iter()).zip(samples).zip(colors.iter_mut());
+        for (i, (((ray, s), sample), color)) in samples.enumerate() {
+            *color = match s {
                 Some(s) => {
                     let known = |l: usize| {
                         let point = SOFT == SoftShadows::NONE || !world.lights[l].is_area();
-                        point.then(|| lit[i * lights + l])
+                        point.then(|| lit[l * count + i])
                     };
                     self.shade_surface(world, ray, s, 1, known, sample, stats)
                 }
