@@ -1,7 +1,7 @@
 use raylume_accel::{Accelerator, PrimitiveHit};
 use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
 use raylume_intersect::Hit;
-use raylume_material::{FresnelMode, Material, reflect, refract};
+use raylume_material::{FresnelMode, Material, fresnel_refract, reflect, refract};
 
 use crate::sampler::SampleSource;
 use crate::{Integrator, Light, Profile, RayStats, RenderSettings, World};
@@ -175,12 +175,20 @@ impl<const SOFT: u8> Whitted<SOFT> {
             if let Some(d) = material.dielectric() {
                 // A ray leaving the solid uses the inverse index ratio.
                 let eta = if entering { 1.0 / d.ior } else { d.ior };
-                let kr = self.fresnel.reflectance(wo.dot(ns).max(0.0), eta);
+                let cos_i = wo.dot(ns);
+                // The exact equations share their terms with the refraction where the cosine is not
+                // negative (a shading normal can face away from `wo`); otherwise each on its own.
+                let (kr, refracted) = if self.fresnel == FresnelMode::Exact && cos_i >= 0.0 {
+                    fresnel_refract(ray.dir, ns, cos_i, eta)
+                } else {
+                    let kr = self.fresnel.reflectance(cos_i.max(0.0), eta);
+                    (kr, if kr < 1.0 { refract(ray.dir, ns, eta) } else { None })
+                };
                 stats.reflection += 1;
                 let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
                 color += kr * self.trace(world, &r, 0.0, depth + 1, sample, stats);
                 if kr < 1.0 {
-                    if let Some(dir) = refract(ray.dir, ns, eta) {
+                    if let Some(dir) = refracted {
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);

@@ -14,7 +14,7 @@ mod light;
 mod optics;
 
 pub use light::{Light, LightShape};
-pub use optics::{FresnelMode, fresnel_dielectric, reflect, refract, schlick};
+pub use optics::{FresnelMode, fresnel_dielectric, fresnel_refract, reflect, refract, schlick};
 use raylume_geometry::{Vec3, Vec3A};
 
 /// A surface's response to light, as the Whitted integrator uses it.
