@@ -55,7 +55,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
     /// The light arriving from `light` at `above` (a point offset off the surface). `known` is what
     /// a batch has found already for a point light: the direction to it if it lights the point, else
     /// zero.
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn direct<A: Accelerator, M: Material, S: SampleSource>(
         &self,
