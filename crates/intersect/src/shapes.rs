@@ -46,7 +46,8 @@ impl Intersect for Sphere {
         // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
         let offset = ray.at(t) - self.center;
         let len = offset.length();
-        if !(len > 0.0 && len.is_finite()) {
+        // `len > 0 && len.is_finite()` on the bits: 1 ..= f32::MAX's.
+        if len.to_bits().wrapping_sub(1) >= f32::MAX.to_bits() {
             return None;
         }
         let normal = offset / len;
