@@ -2,7 +2,7 @@ use std::ops::AddAssign;
 
 use raylume_accel::Accelerator;
 use raylume_camera::{Camera, CameraSample};
-use raylume_geometry::{Interval, Ray, Vec2, Vec3};
+use raylume_geometry::{Interval, Ray, Vec2, Vec3, Vec3A};
 use raylume_material::{FresnelMode, Material};
 use rayon::prelude::*;
 
@@ -368,22 +368,21 @@ fn gathered_band<A, M, C, S, I>(
     let spp = sampler.samples_per_pixel();
     let t_min = camera.t_min();
     let range = Interval::new(t_min, f32::INFINITY);
-    let mut rays = Vec::with_capacity(GATHER);
-    let mut pixels = Vec::with_capacity(GATHER);
+    // The batch's camera rays and pixels in their first `sources.len()` slots.
+    let mut rays = [Ray::new(Vec3A::ZERO, Vec3A::ZERO); GATHER];
+    let mut pixels = [0usize; GATHER];
     let mut sources = Vec::with_capacity(GATHER);
     let mut hits = [None; GATHER];
     let mut colors = [Vec3::ZERO; GATHER];
     let mut buffers = BatchBuffers::default();
-    let mut trace = |rays: &mut Vec<Ray>, pixels: &mut Vec<usize>, sources: &mut Vec<S::Source>, out: &mut [Vec3]| {
-        let n = rays.len();
-        let (hits, colors) = (&mut hits[..n], &mut colors[..n]);
+    let mut trace = |rays: &[Ray], pixels: &[usize], sources: &mut Vec<S::Source>, out: &mut [Vec3]| {
+        let n = sources.len();
+        let (rays, pixels, hits, colors) = (&rays[..n], &pixels[..n], &mut hits[..n], &mut colors[..n]);
         world.accel.closest_hits(rays, range, hits);
         integrator.radiances_after(world, rays, t_min, hits, sources, colors, &mut buffers, stats);
         for (&i, color) in pixels.iter().zip(colors.iter()) {
             out[i] += *color;
         }
-        rays.clear();
-        pixels.clear();
         sources.clear();
     };
     let rows = out.len() / width;
@@ -401,18 +400,19 @@ fn gathered_band<A, M, C, S, I>(
                     let film = Vec2::new(x as f32, y as f32) + src.film();
                     let lens = if C::USES_LENS { src.lens() } else { Vec2::splat(0.5) };
                     let time = if C::USES_TIME { src.time() } else { 0.0 };
-                    rays.push(camera.generate_ray(&CameraSample { film, lens, time }));
-                    pixels.push(r * width + c);
+                    let k = sources.len();
+                    rays[k] = camera.generate_ray(&CameraSample { film, lens, time });
+                    pixels[k] = r * width + c;
                     sources.push(src);
-                    if rays.len() == GATHER {
-                        trace(&mut rays, &mut pixels, &mut sources, out);
+                    if k + 1 == GATHER {
+                        trace(&rays, &pixels, &mut sources, out);
                     }
                 }
             }
         }
     }
-    if !rays.is_empty() {
-        trace(&mut rays, &mut pixels, &mut sources, out);
+    if !sources.is_empty() {
+        trace(&rays, &pixels, &mut sources, out);
     }
     let rendered = mask.map_or(out.len(), |m| m.iter().filter(|&&a| a).count());
     stats.camera += rendered as u64 * spp as u64;

@@ -1,7 +1,7 @@
 use raylume_accel::{Accelerator, PrimitiveHit};
 use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
 use raylume_intersect::Hit;
-use raylume_material::{FresnelMode, Material, reflect, refract};
+use raylume_material::{FresnelMode, Material, fresnel_refract, reflect, refract};
 
 use crate::sampler::SampleSource;
 use crate::{Integrator, Light, Profile, RayStats, RenderSettings, World};
@@ -55,7 +55,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
     /// The light arriving from `light` at `above` (a point offset off the surface). `known` is what
     /// a batch has found already for a point light: the direction to it if it lights the point, else
     /// zero.
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn direct<A: Accelerator, M: Material, S: SampleSource>(
         &self,
@@ -175,12 +175,20 @@ impl<const SOFT: u8> Whitted<SOFT> {
             if let Some(d) = material.dielectric() {
                 // A ray leaving the solid uses the inverse index ratio.
                 let eta = if entering { 1.0 / d.ior } else { d.ior };
-                let kr = self.fresnel.reflectance(wo.dot(ns).max(0.0), eta);
+                let cos_i = wo.dot(ns);
+                // The exact equations share their terms with the refraction where the cosine is not
+                // negative (a shading normal can face away from `wo`); otherwise each on its own.
+                let (kr, refracted) = if self.fresnel == FresnelMode::Exact && cos_i >= 0.0 {
+                    fresnel_refract(ray.dir, ns, cos_i, eta)
+                } else {
+                    let kr = self.fresnel.reflectance(cos_i.max(0.0), eta);
+                    (kr, if kr < 1.0 { refract(ray.dir, ns, eta) } else { None })
+                };
                 stats.reflection += 1;
                 let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
                 color += kr * self.trace(world, &r, 0.0, depth + 1, sample, stats);
                 if kr < 1.0 {
-                    if let Some(dir) = refract(ray.dir, ns, eta) {
+                    if let Some(dir) = refracted {
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
@@ -267,14 +275,25 @@ fn shadow_ray(above: Vec3A, n: Vec3A, target: Vec3A, time: f32) -> Option<(Ray, 
 pub struct BatchBuffers {
     /// Each sample's surface, if its camera ray hit one.
     surfaces: Vec<Option<Surface>>,
-    /// The shadow rays to one light, their ends, and the samples they belong to.
+    /// The shadow rays to one light, their ends, and the samples they belong to, in their first slots
+    /// (one slot per sample).
     rays: Vec<Ray>,
     ends: Vec<f32>,
     owners: Vec<u32>,
     answers: Vec<bool>,
-    /// At `i * lights + l`: the direction from sample `i`'s surface to the point light `l` if that
-    /// light reaches it, else zero.
+    /// At `l * count + i` (`count` samples): the direction from sample `i`'s surface to the point light
+    /// `l` if that light reaches it, else zero (slots of area lights, and past the batch, hold stale
+    /// values).
     lit: Vec<Vec3A>,
+}
+
+/// Makes `buffer` at least `len` long (with `fill`), never shorter: its slots are written before
+/// they are read.
+#[inline]
+fn grow<T: Clone>(buffer: &mut Vec<T>, len: usize, fill: T) {
+    if buffer.len() < len {
+        buffer.resize(len, fill);
+    }
 }
 
 /// Tries to draw a fuzzy reflection direction at most this many times before absorbing the ray.
@@ -338,40 +357,49 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         let BatchBuffers { surfaces, rays: shadow, ends, owners, answers, lit } = buffers;
         surfaces.clear();
         surfaces.extend(rays.iter().zip(firsts).map(|(ray, first)| first.map(|f| surface(world, ray, &f))));
-        lit.clear();
-        lit.resize(count * lights, Vec3A::ZERO);
+        // Every slot is written below (those of area lights are never read): the buffers only grow,
+        // and the shadow rays of a light fill their first slots.
+        grow(lit, count * lights, Vec3A::ZERO);
+        grow(shadow, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
+        grow(ends, count, 0.0);
+        grow(owners, count, 0);
         for (l, light) in world.lights.iter().enumerate() {
             if SOFT != SoftShadows::NONE && light.is_area() {
                 continue;
             }
-            shadow.clear();
-            ends.clear();
-            owners.clear();
-            for (i, (s, ray)) in surfaces.iter().zip(rays).enumerate() {
+            let lit = &mut lit[l * count..(l + 1) * count];
+            let mut slots = shadow.iter_mut().zip(ends.iter_mut()).zip(owners.iter_mut());
+            let mut traced = 0;
+            for (i, ((s, ray), dir)) in surfaces.iter().zip(rays).zip(lit.iter_mut()).enumerate() {
+                *dir = Vec3A::ZERO;
                 if let Some(s) = s
                     && let Some((r, dist)) = shadow_ray(s.above, s.n, light.centre(), ray.time)
                 {
-                    shadow.push(r);
-                    ends.push(dist);
-                    owners.push(i as u32);
+                    let Some(((ray_slot, end_slot), owner_slot)) = slots.next() else {
+                        unreachable!("a slot per sample")
+                    };
+                    (*ray_slot, *end_slot, *owner_slot) = (r, dist, i as u32);
+                    traced += 1;
                 }
             }
+            let (shadow, ends, owners) = (&shadow[..traced], &ends[..traced], &owners[..traced]);
             answers.clear();
-            answers.resize(shadow.len(), false);
+            answers.resize(traced, false);
             world.accel.occluded_each_within(shadow, ends, answers);
-            stats.shadow += shadow.len() as u64;
+            stats.shadow += traced as u64;
             for ((&i, &occluded), ray) in owners.iter().zip(answers.iter()).zip(shadow.iter()) {
                 if !occluded {
-                    lit[i as usize * lights + l] = ray.dir;
+                    lit[i as usize] = ray.dir;
                 }
             }
         }
-        for (i, ((ray, s), sample)) in rays.iter().zip(surfaces.iter()).zip(samples).enumerate() {
-            colors[i] = match s {
+        let samples = rays.iter().zip(surfaces.iter()).zip(samples).zip(colors.iter_mut());
+        for (i, (((ray, s), sample), color)) in samples.enumerate() {
+            *color = match s {
                 Some(s) => {
                     let known = |l: usize| {
                         let point = SOFT == SoftShadows::NONE || !world.lights[l].is_area();
-                        point.then(|| lit[i * lights + l])
+                        point.then(|| lit[l * count + i])
                     };
                     self.shade_surface(world, ray, s, 1, known, sample, stats)
                 }

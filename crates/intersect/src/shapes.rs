@@ -46,7 +46,8 @@ impl Intersect for Sphere {
         // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
         let offset = ray.at(t) - self.center;
         let len = offset.length();
-        if !(len > 0.0 && len.is_finite()) {
+        // `len > 0 && len.is_finite()` on the bits: 1 ..= f32::MAX's.
+        if len.to_bits().wrapping_sub(1) >= f32::MAX.to_bits() {
             return None;
         }
         let normal = offset / len;
@@ -100,7 +101,14 @@ fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
     // |f|^2 - r^2 cancels when the origin is near the surface: form it in f64, where the squares of
     // f32 values are exact.
     let r2 = radius as f64 * radius as f64;
-    let c = (sq64(f) - r2) as f32;
+    let c64 = sq64(f) - r2;
+    // An origin outside the sphere moving away from it: `q` below is negative whatever the rounding,
+    // so both roots `c / q` and `q / a` are too, a miss without the discriminant. (With `c` and `a`
+    // bounded, the tests below would not have sent the ray to f64 either.)
+    if c64 > 0.0 && c64 < 1e38 && half_b > 0.0 && a < 1e8 {
+        return Root::Miss;
+    }
+    let c = c64 as f32;
     let closest = f - ray.dir * (half_b / a);
     let disc = a * (r2 - sq64(closest)) as f32;
     if disc.is_nan() || disc < 0.0 {
@@ -113,10 +121,13 @@ fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
     let q = -(half_b + disc.sqrt().copysign(half_b));
     let (t0, t1) = (c / q, q / a);
     let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-    // Hits at t <= 0 are the surface the ray starts on, never reported.
-    if t0 > 0.0 && range.contains(t0) {
+    // Hits at t <= 0 are the surface the ray starts on, never reported. `t > 0 && range.contains(t)`
+    // as three comparisons: a positive `t` is finite and at most `range.max` when at most `last`.
+    let last = if range.max == f32::INFINITY { f32::MAX } else { range.max };
+    let ahead = |t: f32| t > 0.0 && t >= range.min && t <= last;
+    if ahead(t0) {
         Root::At(t0)
-    } else if t1 > 0.0 && range.contains(t1) {
+    } else if ahead(t1) {
         Root::At(t1)
     } else {
         Root::Miss

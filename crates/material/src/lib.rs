@@ -14,7 +14,7 @@ mod light;
 mod optics;
 
 pub use light::{Light, LightShape};
-pub use optics::{FresnelMode, fresnel_dielectric, reflect, refract, schlick};
+pub use optics::{FresnelMode, fresnel_dielectric, fresnel_refract, reflect, refract, schlick};
 use raylume_geometry::{Vec3, Vec3A};
 
 /// A surface's response to light, as the Whitted integrator uses it.
@@ -101,7 +101,10 @@ impl Material for Phong {
         }
         let mut c = self.diffuse * (self.kd * n_dot_l);
         if self.ks > 0.0 {
-            let h = (wi + wo).normalize_or_zero();
+            // `(wi + wo).normalize_or_zero()`, its test `rcp.is_finite() && rcp > 0` on the bits.
+            let h = wi + wo;
+            let rcp = h.length_recip();
+            let h = if rcp.to_bits().wrapping_sub(1) < f32::MAX.to_bits() { h * rcp } else { Vec3A::ZERO };
             let n_dot_h = n.dot(h).max(0.0);
             c += self.specular * (self.ks * self.specular_scale * n_dot_h.powf(self.shine));
         }

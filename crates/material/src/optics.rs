@@ -88,6 +88,38 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     0.5 * (rs * rs + rp * rp)
 }
 
+/// The exact Fresnel reflectance and the refracted direction together, sharing the terms they have
+/// in common: bit for bit `(fresnel_dielectric(cos_i, eta), refract(d, n, eta))`, the direction
+/// `None` under total internal reflection (where the reflectance is 1).
+///
+/// `d` is the unit direction pointing at the surface, `n` the unit normal facing the incoming side,
+/// `cos_i` the cosine of incidence as `(-d).dot(n)` gives it, which must be at least 0 (not NaN):
+/// [`refract`] takes its cosine from `d` and `n`, and only a non-negative one is the same as
+/// [`fresnel_dielectric`]'s clamped one.
+///
+/// ```
+/// use raylume_material::{fresnel_dielectric, fresnel_refract, refract};
+/// use raylume_geometry::Vec3A;
+/// let d = Vec3A::new(0.6, -0.8, 0.0);
+/// let (kr, dir) = fresnel_refract(d, Vec3A::Y, (-d).dot(Vec3A::Y), 1.0 / 1.5);
+/// assert_eq!((kr, dir), (fresnel_dielectric(0.8, 1.0 / 1.5), refract(d, Vec3A::Y, 1.0 / 1.5)));
+/// ```
+#[inline]
+pub fn fresnel_refract(d: Vec3A, n: Vec3A, cos_i: f32, eta: f32) -> (f32, Option<Vec3A>) {
+    debug_assert!(cos_i >= 0.0, "the cosine of incidence {cos_i} is negative or NaN");
+    // `clamp(0, 1)` of a non-negative cosine, and `refract`'s `min(1)`.
+    let cos_i = cos_i.min(1.0);
+    // 1 - cos^2 >= 0 here: `refract`'s `max(0)` changes nothing.
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if sin2_t >= 1.0 {
+        return (1.0, None);
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let rp = (eta * cos_t - cos_i) / (eta * cos_t + cos_i);
+    (0.5 * (rs * rs + rp * rp), Some((d * eta + n * (eta * cos_i - cos_t)).normalize()))
+}
+
 /// Schlick's approximation of the Fresnel reflectance, `R0 + (1 - R0)(1 - cos)^5`, where the cosine
 /// is taken on the side of the lower index (so total internal reflection gives 1).
 #[inline]

@@ -1,8 +1,9 @@
-//! Fresnel against published values, Schlick within its known error, Snell's law.
+//! Fresnel against published values, Schlick within its known error, Snell's law, and the shading's
+//! shared and shortened forms against the plain ones, bit for bit.
 
 use approx::assert_relative_eq;
-use raylume_geometry::Vec3A;
-use raylume_material::{FresnelMode, fresnel_dielectric, reflect, refract, schlick};
+use raylume_geometry::{Vec3, Vec3A};
+use raylume_material::{FresnelMode, Material, Phong, fresnel_dielectric, fresnel_refract, reflect, refract, schlick};
 
 #[test]
 fn glass_reflects_four_percent_at_normal_incidence() {
@@ -98,4 +99,80 @@ fn snell_law_holds() {
     assert!(t.y < 0.0);
     let r = reflect(d, Vec3A::Y);
     assert_relative_eq!(r.y, theta_i.cos(), max_relative = 1e-6);
+}
+
+/// A spread of unit vectors (a golden-angle spiral over the sphere).
+fn directions(count: u32) -> impl Iterator<Item = Vec3A> {
+    (0..count).map(move |i| {
+        let z = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
+        let phi = i as f32 * 2.399_963;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3A::new(r * phi.cos(), r * phi.sin(), z).normalize()
+    })
+}
+
+#[test]
+fn fresnel_and_refraction_together_are_the_two_apart_bit_for_bit() {
+    let normals: Vec<Vec3A> = directions(37).collect();
+    let mut compared = 0;
+    for d in directions(2000) {
+        for &n in &normals {
+            let cos_i = (-d).dot(n);
+            if cos_i < 0.0 {
+                continue;
+            }
+            for eta in [1.0 / 1.5, 1.5, 1.0, 1.0 / 2.4, 2.4, 1.0 / 1.333, 1.333, 0.999, 1.001] {
+                let (kr, dir) = fresnel_refract(d, n, cos_i, eta);
+                let (kr_apart, dir_apart) = (fresnel_dielectric(cos_i.max(0.0), eta), refract(d, n, eta));
+                assert_eq!(kr.to_bits(), kr_apart.to_bits(), "d {d}, n {n}, eta {eta}");
+                assert_eq!(
+                    dir.map(|v| v.to_array().map(f32::to_bits)),
+                    dir_apart.map(|v| v.to_array().map(f32::to_bits))
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 100_000, "{compared} cases");
+    // Grazing and head-on incidence, where the cosine is 0 or rounds past 1.
+    for (d, n) in [(Vec3A::X, Vec3A::Y), (-Vec3A::Y, Vec3A::Y), (Vec3A::new(0.6, -0.8, 0.0), Vec3A::new(0.6, 0.8, 0.0))]
+    {
+        for eta in [1.0 / 1.5, 1.5] {
+            let cos_i = (-d).dot(n);
+            let (kr, dir) = fresnel_refract(d, n, cos_i, eta);
+            assert_eq!((kr, dir), (fresnel_dielectric(cos_i.max(0.0), eta), refract(d, n, eta)));
+        }
+    }
+}
+
+/// Blinn-Phong with glam's `normalize_or_zero` for the half vector, as the shading defines it.
+fn blinn_phong_reference(m: &Phong, n: Vec3A, wo: Vec3A, wi: Vec3A) -> Vec3 {
+    let n_dot_l = n.dot(wi);
+    if n_dot_l <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let h = (wi + wo).normalize_or_zero();
+    let n_dot_h = n.dot(h).max(0.0);
+    m.diffuse * (m.kd * n_dot_l) + m.specular * (m.ks * m.specular_scale * n_dot_h.powf(m.shine))
+}
+
+#[test]
+fn phong_highlights_are_those_of_the_plain_half_vector_bit_for_bit() {
+    let m = Phong {
+        diffuse: Vec3::new(0.9, 0.5, 0.1),
+        kd: 0.7,
+        specular: Vec3::ONE,
+        ks: 0.4,
+        shine: 37.0,
+        ..Phong::default()
+    };
+    let n = Vec3A::new(0.2, 0.9, 0.1).normalize();
+    let views: Vec<Vec3A> = directions(61).collect();
+    for wi in directions(500) {
+        // The view opposite the light makes the half vector zero.
+        for wo in views.iter().copied().chain([-wi]) {
+            let (got, want) = (m.local(n, wo, wi), blinn_phong_reference(&m, n, wo, wi));
+            assert_eq!(got.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "wo {wo}, wi {wi}");
+        }
+    }
 }

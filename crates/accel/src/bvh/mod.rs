@@ -251,15 +251,22 @@ impl<P> Bvh<P> {
 }
 
 impl<P: Intersect> Bvh<P> {
-    /// The closest hit within `t_range` among the planes and the shapes other than triangles.
+    /// The closest hit within `t_range` among the planes and the shapes other than triangles, written
+    /// to `best` (`None` if there is none): in place, where the caller keeps it.
     #[inline(always)]
-    fn closest_other<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        let mut best = None;
+    fn closest_other<T: Tally>(
+        &self,
+        ray: &Ray,
+        mut t_range: Interval,
+        tally: &mut T,
+        best: &mut Option<PrimitiveHit>,
+    ) {
+        *best = None;
         for (p, id) in &self.unbounded {
             tally.tested();
             if let Some(hit) = p.intersect_canonical(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: *id });
+                keep_closer(best, PrimitiveHit { hit, primitive: *id });
             }
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
@@ -268,7 +275,7 @@ impl<P: Intersect> Bvh<P> {
                 tally.tested();
                 if let Some(hit) = prims[i].intersect_canonical(ray, *t_range) {
                     *t_range = t_range.with_max(hit.t);
-                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                    keep_closer(best, PrimitiveHit { hit, primitive: ids[i] });
                 }
             });
         } else if let Some((tree, prims, ids)) = &self.others {
@@ -279,13 +286,12 @@ impl<P: Intersect> Bvh<P> {
                     tally.tested();
                     if let Some(hit) = prims[i].intersect_canonical(ray, range) {
                         range = range.with_max(hit.t);
-                        best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                        keep_closer(best, PrimitiveHit { hit, primitive: ids[i] });
                     }
                 }
                 range.max
             });
         }
-        best
     }
 
     /// Whether a bounded shape other than a triangle is hit within `(0, t_max)`.
@@ -306,6 +312,15 @@ impl<P: Intersect> Bvh<P> {
                 p.occluded_canonical(ray, t_max)
             })
         })
+    }
+}
+
+/// [`PrimitiveHit::closer`] in place: `best` becomes `candidate` if it beats it, and is left as it is
+/// otherwise (no copy of the hit it holds).
+#[inline(always)]
+fn keep_closer(best: &mut Option<PrimitiveHit>, candidate: PrimitiveHit) {
+    if best.as_ref().is_none_or(|b| candidate.beats(b)) {
+        *best = Some(candidate);
     }
 }
 
@@ -347,7 +362,7 @@ impl<P: Intersect> Bvh<P> {
         let mut t_max = [t_range.max; stream::PACKET];
         if self.others.is_some() || !self.unbounded.is_empty() {
             for ((ray, hit), t) in rays.iter().zip(hits.iter_mut()).zip(&mut t_max) {
-                *hit = self.closest_other(ray, t_range, &mut ());
+                self.closest_other(ray, t_range, &mut (), hit);
                 *t = hit.map_or(t_range.max, |h| h.hit.t);
             }
         } else {
@@ -432,11 +447,10 @@ impl<P: Intersect> Bvh<P> {
     /// [`Accelerator::closest_hit_tally`] of a canonical ray.
     fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
         // Meshes have no other shapes: no hit to carry over then.
-        let mut best = if self.others.is_some() || !self.unbounded.is_empty() {
-            self.closest_other(ray, t_range, tally)
-        } else {
-            None
-        };
+        let mut best = None;
+        if self.others.is_some() || !self.unbounded.is_empty() {
+            self.closest_other(ray, t_range, tally, &mut best);
+        }
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
