@@ -101,14 +101,7 @@ fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
     // |f|^2 - r^2 cancels when the origin is near the surface: form it in f64, where the squares of
     // f32 values are exact.
     let r2 = radius as f64 * radius as f64;
-    let c64 = sq64(f) - r2;
-    // An origin outside the sphere moving away from it: `q` below is negative whatever the rounding,
-    // so both roots `c / q` and `q / a` are too, a miss without the discriminant. (With `c` and `a`
-    // bounded, the tests below would not have sent the ray to f64 either.)
-    if c64 > 0.0 && c64 < 1e38 && half_b > 0.0 && a < 1e8 {
-        return Root::Miss;
-    }
-    let c = c64 as f32;
+    let c = (sq64(f) - r2) as f32;
     let closest = f - ray.dir * (half_b / a);
     let disc = a * (r2 - sq64(closest)) as f32;
     if disc.is_nan() || disc < 0.0 {
