@@ -44,23 +44,14 @@ impl Intersect for Primitive {
         dispatch!(self, s => s.occluded(ray, t_max))
     }
 
-    /// Spheres, the shapes accelerators test most, first and in their own lean path; the other shapes
-    /// out of line.
     #[inline]
     fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        match self {
-            Primitive::Sphere(s) => s.intersect_canonical(ray, t_range),
-            _ => self.intersect_canonical_other(ray, t_range),
-        }
+        dispatch!(self, s => s.intersect_canonical(ray, t_range))
     }
 
-    /// As [`Primitive::intersect_canonical`]: spheres first, the other shapes out of line.
     #[inline]
     fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
-        match self {
-            Primitive::Sphere(s) => s.occluded_canonical(ray, t_max),
-            _ => self.occluded_canonical_other(ray, t_max),
-        }
+        dispatch!(self, s => s.occluded_canonical(ray, t_max))
     }
 
     fn bounds(&self) -> Aabb {
@@ -84,17 +75,5 @@ impl Primitive {
     /// Whether the primitive has finite bounds (planes do not).
     pub fn is_bounded(&self) -> bool {
         !matches!(self, Primitive::Plane(_))
-    }
-
-    /// [`Intersect::intersect_canonical`] of any shape, out of line.
-    #[inline(never)]
-    fn intersect_canonical_other(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        dispatch!(self, s => s.intersect_canonical(ray, t_range))
-    }
-
-    /// [`Intersect::occluded_canonical`] of any shape, out of line.
-    #[inline(never)]
-    fn occluded_canonical_other(&self, ray: &Ray, t_max: f32) -> bool {
-        dispatch!(self, s => s.occluded_canonical(ray, t_max))
     }
 }
