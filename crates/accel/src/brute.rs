@@ -29,7 +29,7 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
                 tally.tested();
                 if let Some(hit) = p.intersect_canonical(ray, t_range) {
                     t_range = t_range.with_max(hit.t);
-                    best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive: i as u32 });
+                    PrimitiveHit::keep_closer(&mut best, PrimitiveHit { hit, primitive: i as u32 });
                 }
             }
             best

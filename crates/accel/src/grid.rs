@@ -577,7 +577,7 @@ impl<P: Intersect> Grid<P> {
     fn closest_other(&self, id: u32, ray: &Ray, t_range: &mut Interval, found: &mut Closest) {
         if let Some(hit) = self.prims[id as usize].intersect_canonical(ray, *t_range) {
             *t_range = t_range.with_max(hit.t);
-            found.other = PrimitiveHit::closer(found.other, PrimitiveHit { hit, primitive: id });
+            PrimitiveHit::keep_closer(&mut found.other, PrimitiveHit { hit, primitive: id });
         }
     }
 

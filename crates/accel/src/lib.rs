@@ -49,10 +49,30 @@ impl PrimitiveHit {
 
     /// `candidate` if it [beats](PrimitiveHit::beats) `best` (or there is none), else `best`.
     #[inline]
-    pub fn closer(best: Option<PrimitiveHit>, candidate: PrimitiveHit) -> Option<PrimitiveHit> {
-        match best {
-            Some(b) if !candidate.beats(&b) => Some(b),
-            _ => Some(candidate),
+    pub fn closer(mut best: Option<PrimitiveHit>, candidate: PrimitiveHit) -> Option<PrimitiveHit> {
+        Self::keep_closer(&mut best, candidate);
+        best
+    }
+
+    /// [`PrimitiveHit::closer`] in place: `best` becomes `candidate` if it beats it, and is left as it
+    /// is otherwise (no copy of the hit it holds).
+    ///
+    /// ```
+    /// use raylume_accel::PrimitiveHit;
+    /// use raylume_geometry::{Vec2, Vec3A};
+    /// use raylume_intersect::Hit;
+    /// let hit = |t: f32| Hit { t, point: Vec3A::ZERO, normal: Vec3A::Z, uv: Vec2::ZERO, error: Vec3A::ZERO };
+    /// let at = |t: f32, primitive: u32| PrimitiveHit { hit: hit(t), primitive };
+    /// let mut best = None;
+    /// PrimitiveHit::keep_closer(&mut best, at(2.0, 5));
+    /// PrimitiveHit::keep_closer(&mut best, at(2.0, 3)); // as close, lower index: kept
+    /// PrimitiveHit::keep_closer(&mut best, at(3.0, 0)); // farther: not kept
+    /// assert_eq!(best.map(|b| b.primitive), Some(3));
+    /// ```
+    #[inline(always)]
+    pub fn keep_closer(best: &mut Option<PrimitiveHit>, candidate: PrimitiveHit) {
+        if best.as_ref().is_none_or(|b| candidate.beats(b)) {
+            *best = Some(candidate);
         }
     }
 }

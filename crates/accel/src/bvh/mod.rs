@@ -266,7 +266,7 @@ impl<P: Intersect> Bvh<P> {
             tally.tested();
             if let Some(hit) = p.intersect_canonical(ray, t_range) {
                 t_range = t_range.with_max(hit.t);
-                keep_closer(best, PrimitiveHit { hit, primitive: *id });
+                PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: *id });
             }
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
@@ -275,7 +275,7 @@ impl<P: Intersect> Bvh<P> {
                 tally.tested();
                 if let Some(hit) = prims[i].intersect_canonical(ray, *t_range) {
                     *t_range = t_range.with_max(hit.t);
-                    keep_closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                    PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: ids[i] });
                 }
             });
         } else if let Some((tree, prims, ids)) = &self.others {
@@ -286,7 +286,7 @@ impl<P: Intersect> Bvh<P> {
                     tally.tested();
                     if let Some(hit) = prims[i].intersect_canonical(ray, range) {
                         range = range.with_max(hit.t);
-                        keep_closer(best, PrimitiveHit { hit, primitive: ids[i] });
+                        PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: ids[i] });
                     }
                 }
                 range.max
@@ -312,15 +312,6 @@ impl<P: Intersect> Bvh<P> {
                 p.occluded_canonical(ray, t_max)
             })
         })
-    }
-}
-
-/// [`PrimitiveHit::closer`] in place: `best` becomes `candidate` if it beats it, and is left as it is
-/// otherwise (no copy of the hit it holds).
-#[inline(always)]
-fn keep_closer(best: &mut Option<PrimitiveHit>, candidate: PrimitiveHit) {
-    if best.as_ref().is_none_or(|b| candidate.beats(b)) {
-        *best = Some(candidate);
     }
 }
 
@@ -459,7 +450,7 @@ impl<P: Intersect> Bvh<P> {
         {
             if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
                 let (hit, primitive) = tris.hit(found);
-                best = PrimitiveHit::closer(best, PrimitiveHit { hit, primitive });
+                PrimitiveHit::keep_closer(&mut best, PrimitiveHit { hit, primitive });
             }
         }
         best
