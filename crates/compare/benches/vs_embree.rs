@@ -19,7 +19,8 @@
 //! `RAYLUME_EMBREE_ONCE=ENGINE/QUERY/RAYS` instead runs one engine's pass once over the first mesh and
 //! exits, a fixed workload for `valgrind --tool=callgrind`: ENGINE is `raylume`, `embree`, `robust`
 //! (single rays), `batch`, `packet` or `stream` (tiles of camera rays); QUERY `closest` or
-//! `occluded`; RAYS `camera` or `random`.
+//! `occluded`; RAYS `camera` or `random`. `RAYLUME_EMBREE_REPEAT=n` runs that pass n times, for a
+//! sampling profiler.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -142,7 +143,12 @@ fn run(
 ) -> Option<Row> {
     if let Some(once) = once {
         if let Some((name, pass)) = engines.iter_mut().find(|(name, _)| *once == format!("{name}/{query}/{rays}")) {
-            println!("{mesh} {name} {query} {rays}: {} of {n}", pass());
+            let repeat = std::env::var("RAYLUME_EMBREE_REPEAT").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+            let mut found = 0;
+            for _ in 0..repeat {
+                found = pass();
+            }
+            println!("{mesh} {name} {query} {rays}: {found} of {n}");
             std::process::exit(0);
         }
         return None;
