@@ -437,11 +437,20 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
 impl<P: Intersect> Bvh<P> {
     /// [`Accelerator::closest_hit_tally`] of a canonical ray.
     fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        // Meshes have no other shapes: no hit to carry over then.
-        let mut best = None;
-        if self.others.is_some() || !self.unbounded.is_empty() {
-            self.closest_other(ray, t_range, tally, &mut best);
+        let tri_hit = |tris: &Triangles, found| {
+            let (hit, primitive) = tris.hit(found);
+            PrimitiveHit { hit, primitive }
+        };
+        if self.others.is_none() && self.unbounded.is_empty() {
+            // A mesh: its triangles alone, and no hit to carry over.
+            let tris = self.triangles.as_ref()?;
+            if !self.may_meet_triangles(ray, t_range.min, t_range.max) {
+                return None;
+            }
+            return tris.closest(ray, t_range.min, t_range.max, tally).map(|found| tri_hit(tris, found));
         }
+        let mut best = None;
+        self.closest_other(ray, t_range, tally, &mut best);
         if let Some(b) = &best {
             t_range = t_range.with_max(b.hit.t);
         }
@@ -449,8 +458,7 @@ impl<P: Intersect> Bvh<P> {
             && self.may_meet_triangles(ray, t_range.min, t_range.max)
         {
             if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
-                let (hit, primitive) = tris.hit(found);
-                PrimitiveHit::keep_closer(&mut best, PrimitiveHit { hit, primitive });
+                PrimitiveHit::keep_closer(&mut best, tri_hit(tris, found));
             }
         }
         best
