@@ -1,6 +1,6 @@
 //! The kernels for CPUs with AVX2: the box test of eight-wide nodes in 256-bit registers (the same
 //! operations as [`BoxRay`](super::wide::BoxRay)'s, on eight children at once), their children ordered
-//! by a sorting network, and the candidate filter of a leaf's two packets of triangles at once.
+//! by a sorting network, and the candidate filter of a leaf's eight triangles at once.
 //!
 //! Queries that use it run inside [`V3::vectorize`], which compiles them with AVX2 enabled; the token
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
@@ -385,7 +385,7 @@ impl<E: Exact> pulp::NullaryFnOnce for Compiled<E> {
     }
 }
 
-/// A leaf's two packets in the ray's frame, as [`watertight_decide`](raylume_intersect::watertight_decide)
+/// A leaf's triangles in the ray's frame, as [`watertight_decide`](raylume_intersect::watertight_decide)
 /// forms them, lane by lane: the vertices' sheared coordinates (`z` not yet scaled) and the edge
 /// functions.
 pub(super) struct Edges {
@@ -402,21 +402,19 @@ pub(super) struct Edges {
 /// [`Edges`] of `leaf` for `ray`, with the very operations of [`candidates`](super::triangles::candidates).
 #[inline(always)]
 fn edges(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> Edges {
-    // Both packets, the second empty in a leaf of four or fewer (its lanes are masked off by the
-    // callers): no branch on the leaf's size. No closures here: each must be inlined for its intrinsics
-    // to be (see `Walk`).
+    // All eight lanes, those past the leaf's triangles masked off by the callers: no branch on the
+    // leaf's size. No closures here: each must be inlined for its intrinsics to be (see `Walk`).
     let avx = simd.avx;
-    let [p, q] = &leaf.packets;
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
     let (sx, sy) = (avx._mm256_set1_ps(ray.shear[0]), avx._mm256_set1_ps(ray.shear[1]));
     let o = ray.origin.to_array();
     let (ox, oy, oz) = (avx._mm256_set1_ps(o[kx]), avx._mm256_set1_ps(o[ky]), avx._mm256_set1_ps(o[kz]));
-    // Vertex k's coordinates along the ray's frame, sheared, for both packets.
+    // Vertex k's coordinates along the ray's frame, sheared, for all eight lanes.
     macro_rules! sheared {
         ($k:literal) => {{
-            let x = avx._mm256_set_m128(pulp::cast(q.v[$k][kx]), pulp::cast(p.v[$k][kx]));
-            let y = avx._mm256_set_m128(pulp::cast(q.v[$k][ky]), pulp::cast(p.v[$k][ky]));
-            let z = avx._mm256_set_m128(pulp::cast(q.v[$k][kz]), pulp::cast(p.v[$k][kz]));
+            let x: __m256 = pulp::cast(leaf.v[$k][kx]);
+            let y: __m256 = pulp::cast(leaf.v[$k][ky]);
+            let z: __m256 = pulp::cast(leaf.v[$k][kz]);
             let az = avx._mm256_sub_ps(z, oz);
             (
                 avx._mm256_sub_ps(avx._mm256_sub_ps(x, ox), avx._mm256_mul_ps(sx, az)),
@@ -572,8 +570,8 @@ fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
 /// [`decided_distance`](raylume_intersect::decided_distance) of every lane of `leaf` whose f32 distance
 /// is `t`, with the scalar routine's operations in its order, four lanes at a time in f64: the
 /// triangle's `normal64`, the distance to its plane, and `t` where that distance is not finite in f32
-/// (a zero denominator makes it infinite or NaN). Only the packets holding a lane of `lanes` are
-/// formed (the others' lanes are zero); within a packet every lane is, so that the distances do not
+/// (a zero denominator makes it infinite or NaN). Only the halves holding a lane of `lanes` are
+/// formed (the others' lanes are zero); within a half every lane is, so that the distances do not
 /// wait for the verdict's lanes one by one.
 #[inline(always)]
 fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: u32) -> __m256 {
@@ -585,11 +583,10 @@ fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: 
         (avx._mm256_set1_pd(d[0] as f64), avx._mm256_set1_pd(d[1] as f64), avx._mm256_set1_pd(d[2] as f64));
     // No closures here (see `Walk`).
     macro_rules! distance {
-        ($p:expr) => {{
-            let v = &$p.v;
+        ($half:literal) => {{
             macro_rules! wide {
                 ($k:literal, $a:literal) => {
-                    avx._mm256_cvtps_pd(pulp::cast(v[$k][$a]))
+                    avx._mm256_cvtps_pd(pulp::cast(leaf.quarter($k, $a, $half)))
                 };
             }
             let (p0x, p0y, p0z) = (wide!(0, 0), wide!(0, 1), wide!(0, 2));
@@ -618,11 +615,10 @@ fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: 
             avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
         }};
     }
-    let [p, q] = &leaf.packets;
     let none = simd.sse._mm_setzero_ps();
     let plane = avx._mm256_set_m128(
-        if lanes & 0xF0 != 0 { distance!(q) } else { none },
-        if lanes & 0x0F != 0 { distance!(p) } else { none },
+        if lanes & 0xF0 != 0 { distance!(1) } else { none },
+        if lanes & 0x0F != 0 { distance!(0) } else { none },
     );
     let finite = avx._mm256_cmp_ps::<_CMP_LT_OQ>(
         avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), plane),
@@ -670,7 +666,7 @@ impl Filter for V3 {
     type Prepared = Edges;
 
     /// [`Portable`](super::leaf::Portable)'s filter with the very operations of
-    /// [`candidates`](super::triangles::candidates), on both packets of a leaf at once.
+    /// [`candidates`](super::triangles::candidates), on all eight lanes of a leaf at once.
     #[inline(always)]
     fn prepare(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> (u32, Edges) {
         let e = edges(self, leaf, ray);

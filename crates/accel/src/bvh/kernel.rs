@@ -12,7 +12,7 @@ use super::triangles::{LANES, Leaf};
 use super::wide::{BoxRay, Frustum, LeafTest, WideTree, leaf_range, leaf_ref};
 use crate::Tally;
 
-/// Largest leaf of triangles: two packets.
+/// Largest leaf of triangles: eight, one AVX register's lanes.
 pub(super) const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
 
 /// The kernel a [`Bvh`](super::Bvh) answers queries with over its triangles

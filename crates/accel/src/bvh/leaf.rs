@@ -7,7 +7,7 @@
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
-use super::triangles::{LANES, Leaf, candidates};
+use super::triangles::{LANES, Leaf, candidates_of};
 use super::wide::{LeafTest, leaf_range, set_bits};
 use crate::Tally;
 
@@ -71,8 +71,8 @@ impl Filter for Portable {
     #[inline(always)]
     fn prepare(self, leaf: &Leaf, count: usize, ray: &ShearedRay) -> (u32, ()) {
         let mut lanes = 0;
-        for (j, packet) in leaf.packets.iter().enumerate().take(count.div_ceil(LANES)) {
-            lanes |= candidates(packet, ray, (count - j * LANES).min(LANES)) << (j * LANES);
+        for j in 0..count.div_ceil(LANES) {
+            lanes |= candidates_of(|k, a| leaf.quarter(k, a, j), ray, (count - j * LANES).min(LANES)) << (j * LANES);
         }
         (lanes, ())
     }

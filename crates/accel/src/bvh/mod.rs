@@ -1,8 +1,8 @@
 //! A bounding volume hierarchy: built binary with binned SAH (or the course's midpoint splits), then
 //! collapsed into wide nodes whose children's boxes a ray tests together: eight children in AVX
 //! registers on CPUs with AVX2 ([`BvhKernel::Avx2`]), four in SSE2 registers elsewhere
-//! ([`BvhKernel::Portable`]). Triangles live in their own tree, in packets of four laid out for the
-//! watertight test; other bounded shapes in a second (four-wide) tree; unbounded ones (planes) outside
+//! ([`BvhKernel::Portable`]). Triangles live in their own tree, in leaves of up to eight laid out for
+//! the watertight test; other bounded shapes in a second (four-wide) tree; unbounded ones (planes) outside
 //! both.
 //!
 //! The parts, each using only those listed after it:
@@ -14,7 +14,8 @@
 //! - `stream`: packets of coherent rays walked down the triangles' tree together;
 //! - `leaf`: the triangles' leaf tests: the [`Filter`](leaf::Filter) that finds a leaf's candidates
 //!   ([`Portable`](leaf::Portable) here), the exact test of the candidates, the leaf tests of a walk;
-//! - `triangles`: the leaves' layout (packets of four triangles) and the four-lane candidate filter;
+//! - `triangles`: the leaves' layout (eight triangles coordinate by coordinate), the grid's packets of
+//!   four, and the four-lane candidate filter;
 //! - `wide`: wide nodes, the collapse of the binary tree into them, the box tests and the walk;
 //! - `build`: the binary build.
 

@@ -1,5 +1,6 @@
-//! Triangles in packets of four, laid out for the watertight test: one ray finds, for four triangles
-//! at once, those whose edge functions do not rule it out; [`watertight_decide`] then decides those
+//! Triangles laid out for the watertight test, coordinate by coordinate: the BVH's leaves of up to
+//! eight and the grid's packets of four. One ray finds, for four triangles at once (or eight, in AVX
+//! registers), those whose edge functions do not rule it out; [`watertight_decide`] then decides those
 //! few exactly as the scalar test does.
 //!
 //! [`watertight_decide`]: raylume_intersect::watertight_decide
@@ -53,11 +54,6 @@ impl Packet {
         self.id[lane as usize]
     }
 
-    /// Number of triangles held.
-    pub fn len(&self) -> usize {
-        self.id.iter().filter(|&&id| id != NO_ID).count()
-    }
-
     /// The mask of the lanes that hold a triangle, without branches.
     #[inline(always)]
     pub fn used(&self) -> u32 {
@@ -65,12 +61,18 @@ impl Packet {
     }
 }
 
-/// The triangles of one leaf: up to eight, in two packets (the second empty for four or fewer),
-/// aligned to a cache line so that a leaf spans five lines wherever the allocator puts them.
+/// Triangles per leaf at most.
+pub(super) const LEAF_LANES: usize = 2 * LANES;
+
+/// The triangles of one leaf: up to eight, coordinate by coordinate (`v[vertex][axis][lane]`), so that
+/// a coordinate of all eight is one 32-byte row (the four-lane filter takes each half in turn), and
+/// their input indices; aligned to a cache line so that a leaf spans five lines wherever the allocator
+/// puts them. Unused lanes hold zeros and no id.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct Leaf {
-    pub packets: [Packet; 2],
+    pub v: [[[f32; LEAF_LANES]; 3]; 3],
+    id: [u32; LEAF_LANES],
 }
 
 const _: () = assert!(std::mem::size_of::<Leaf>() == 320);
@@ -78,27 +80,45 @@ const _: () = assert!(std::mem::size_of::<Leaf>() == 320);
 impl Leaf {
     /// The leaf of `tris` (at most eight) with their ids.
     pub fn new(tris: impl IntoIterator<Item = (Triangle, u32)>) -> Self {
+        let mut leaf = Self { v: [[[0.0; LEAF_LANES]; 3]; 3], id: [NO_ID; LEAF_LANES] };
         let mut tris = tris.into_iter();
-        let packets = [Packet::new(tris.by_ref().take(LANES)), Packet::new(tris.by_ref().take(LANES))];
+        for (lane, (t, id)) in tris.by_ref().take(LEAF_LANES).enumerate() {
+            for (k, vertex) in t.p.iter().enumerate() {
+                for a in 0..3 {
+                    leaf.v[k][a][lane] = vertex[a];
+                }
+            }
+            leaf.id[lane] = id;
+        }
         debug_assert!(tris.next().is_none(), "a leaf holds at most eight triangles");
-        Self { packets }
+        leaf
     }
 
-    /// The triangle of candidate bit `bit` ([`Filter::leaf_candidates`](super::leaf::Filter::leaf_candidates)).
+    /// The triangle of candidate bit `bit` ([`Filter::leaf_candidates`](super::leaf::Filter::leaf_candidates)),
+    /// with the very coordinates it was built from.
     #[inline]
     pub fn triangle(&self, bit: u32) -> Triangle {
-        self.packets[(bit as usize / LANES) & 1].triangle(bit % LANES as u32)
+        let l = bit as usize % LEAF_LANES;
+        let vertex = |k: usize| Vec3A::new(self.v[k][0][l], self.v[k][1][l], self.v[k][2][l]);
+        Triangle::new(vertex(0), vertex(1), vertex(2))
     }
 
     /// The input index of the triangle of candidate bit `bit`.
     #[inline]
     pub fn id(&self, bit: u32) -> u32 {
-        self.packets[(bit as usize / LANES) & 1].id(bit % LANES as u32)
+        self.id[bit as usize % LEAF_LANES]
     }
 
     /// Number of triangles held.
     pub fn len(&self) -> usize {
-        self.packets.iter().map(Packet::len).sum()
+        self.id.iter().filter(|&&id| id != NO_ID).count()
+    }
+
+    /// Coordinate `axis` of vertex `k` of the four lanes of half `half` (0 or 1).
+    #[inline(always)]
+    pub fn quarter(&self, k: usize, axis: usize, half: usize) -> [f32; LANES] {
+        let halves: [[f32; LANES]; 2] = pulp::cast(self.v[k][axis]);
+        halves[half]
     }
 }
 
@@ -109,13 +129,19 @@ impl Leaf {
 /// decision rejects too.
 #[inline(always)]
 pub(crate) fn candidates(p: &Packet, ray: &ShearedRay, count: usize) -> u32 {
+    candidates_of(|k, a| p.v[k][a], ray, count)
+}
+
+/// [`candidates`] of the four triangles whose coordinate `a` of vertex `k` is `v(k, a)`, lane by lane.
+#[inline(always)]
+pub(crate) fn candidates_of(v: impl Fn(usize, usize) -> [f32; LANES], ray: &ShearedRay, count: usize) -> u32 {
     let [kx, ky, kz] = ray.axes.map(|k| k.min(2));
     let [sx, sy, _] = ray.shear.map(Vec4::splat);
     let o = ray.origin.to_array();
     let (ox, oy, oz) = (Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz]));
     let sheared = |k: usize| {
-        let az = Vec4::from_array(p.v[k][kz]) - oz;
-        ((Vec4::from_array(p.v[k][kx]) - ox) - sx * az, (Vec4::from_array(p.v[k][ky]) - oy) - sy * az)
+        let az = Vec4::from_array(v(k, kz)) - oz;
+        ((Vec4::from_array(v(k, kx)) - ox) - sx * az, (Vec4::from_array(v(k, ky)) - oy) - sy * az)
     };
     let ((ax, ay), (bx, by), (cx, cy)) = (sheared(0), sheared(1), sheared(2));
     // Each edge function with its error bound (the scalar `edge_error`, lane by lane).
@@ -178,7 +204,6 @@ pub(crate) mod tests {
                 prop_assert!(!accepted || mask & (1 << lane) != 0, "lane {} left out", lane);
             }
             prop_assert_eq!(mask >> tris.len(), 0);
-            prop_assert_eq!(packet.len(), tris.len());
         }
     }
 }
