@@ -205,5 +205,34 @@ pub(crate) mod tests {
             }
             prop_assert_eq!(mask >> tris.len(), 0);
         }
+
+        /// A leaf keeps each triangle's very coordinates and id in its lane, and its halves are the
+        /// packets of its first and last four triangles: the four-lane filter gives each half the
+        /// candidates it gives that packet.
+        #[test]
+        fn leaf_halves_are_packets(
+            verts in prop::collection::vec(prop::array::uniform3(arb_point()), 1..=LEAF_LANES),
+            o in arb_point(),
+            target in arb_point(),
+        ) {
+            let dir = target - o;
+            prop_assume!(dir != Vec3A::ZERO);
+            let Some(sheared) = ShearedRay::new(&Ray::new(o, dir)) else { return Ok(()) };
+            let tris: Vec<(Triangle, u32)> =
+                verts.iter().enumerate().map(|(i, v)| (Triangle::new(v[0], v[1], v[2]), 7 * i as u32 + 3)).collect();
+            let leaf = Leaf::new(tris.iter().copied());
+            prop_assert_eq!(leaf.len(), tris.len());
+            for (bit, (t, id)) in tris.iter().enumerate() {
+                prop_assert_eq!(leaf.triangle(bit as u32), *t);
+                prop_assert_eq!(leaf.id(bit as u32), *id);
+            }
+            for (half, chunk) in tris.chunks(LANES).enumerate() {
+                let packet = Packet::new(chunk.iter().copied());
+                prop_assert_eq!(
+                    candidates_of(|k, a| leaf.quarter(k, a, half), &sheared, chunk.len()),
+                    candidates(&packet, &sheared, chunk.len())
+                );
+            }
+        }
     }
 }
