@@ -300,17 +300,17 @@ fn answer_packet(
 }
 
 /// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
-struct PacketWalk<'a> {
+struct PacketWalk<'a, 'q> {
     simd: V3,
     tree: &'a WideTree<8>,
     leaves: &'a [Leaf],
     leaf_bounds: &'a [[f32; 6]],
     rays: &'a [Ray],
     negative: [bool; 3],
-    query: PacketQuery<'a>,
+    query: PacketQuery<'q>,
 }
 
-impl pulp::NullaryFnOnce for PacketWalk<'_> {
+impl pulp::NullaryFnOnce for PacketWalk<'_, '_> {
     type Output = ();
 
     #[inline(always)]

@@ -379,14 +379,14 @@ impl<T: Tally> KernelVisitor for Occluded<'_, T> {
 }
 
 /// [`Triangles::answer_packet`]'s walk.
-struct Packet<'a> {
+struct Packet<'a, 'q> {
     tris: &'a Triangles,
     rays: &'a [Ray],
     negative: [bool; 3],
-    query: PacketQuery<'a>,
+    query: PacketQuery<'q>,
 }
 
-impl KernelVisitor for Packet<'_> {
+impl KernelVisitor for Packet<'_, '_> {
     type Output = ();
 
     #[inline(always)]

@@ -359,15 +359,12 @@ impl<P: Intersect> Bvh<P> {
         } else {
             hits.fill(None);
         }
-        let mut found = [None; stream::PACKET];
         let (n, t_min) = (rays.len(), t_range.min);
-        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
-        for (hit, found) in hits.iter_mut().zip(&found) {
-            if let Some(found) = *found {
-                let (h, primitive) = tris.hit(found);
-                *hit = Some(PrimitiveHit { hit: h, primitive });
-            }
-        }
+        let mut report = |i: usize, found| {
+            let (hit, primitive) = tris.hit(found);
+            hits[i] = Some(PrimitiveHit { hit, primitive });
+        };
+        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report: &mut report });
     }
 
     /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`.

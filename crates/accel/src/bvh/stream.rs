@@ -32,9 +32,18 @@ pub(super) fn common_signs(rays: &[Ray]) -> Option<[bool; 3]> {
 pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
     let first = rays.first()?;
     let signs = first.dir.cmplt(Vec3A::ZERO).bitmask();
+    // Per ray, the checks of `Ray::is_valid`, `Ray::is_canonical`, `crosses_every_slab` and the signs
+    // in a few vector operations, without a branch: the rays are read once, in one stream. A canonical
+    // direction's largest component lies in `[0.5, 1)`, inside `is_valid`'s range; the comparisons
+    // with infinity fail on NaN, as `is_finite` does.
+    let (infinity, smallest) = (Vec3A::INFINITY, Vec3A::splat(f32::MIN_POSITIVE));
+    let expected = 7 << 3 | signs;
     rays.iter()
-        .all(|r| {
-            r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && r.dir.cmplt(Vec3A::ZERO).bitmask() == signs
+        .fold(true, |all, r| {
+            let d = r.dir.abs();
+            let finite = r.origin.abs().cmplt(infinity) & d.cmplt(infinity) & d.cmpge(smallest);
+            let bits = finite.bitmask() << 3 | r.dir.cmplt(Vec3A::ZERO).bitmask();
+            all & (bits == expected) & r.is_canonical() & !r.time.is_nan()
         })
         .then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
 }
@@ -81,35 +90,43 @@ impl RayGroup {
     }
 }
 
-/// A packet's rays and what the walk keeps for each of them.
-struct Rays<'a> {
+/// A packet's rays and what the walk keeps for each of them (`K`, see [`RayTest::Kept`]), made when
+/// the walk reaches its first leaf (most packets of a camera's rays reach none).
+struct Rays<'a, K> {
     rays: &'a [Ray],
     groups: [RayGroup; GROUPS],
     /// Each ray's end of range: it shrinks with the hits found; `-inf` retires the ray.
     t_max: [f32; PACKET],
-    /// Each ray's watertight frame, prepared at its first leaf (`Some(None)`: the ray has none).
-    sheared: [Option<Option<ShearedRay>>; PACKET],
+    /// Each ray's watertight frame ([`NO_FRAME`] where a ray has none: it is retired).
+    sheared: [ShearedRay; PACKET],
+    /// What the test keeps for each ray.
+    kept: [K; PACKET],
 }
 
-impl<'a> Rays<'a> {
+/// The frame held for a ray that has none (and for the slots past a short packet's rays): never
+/// tested, its ray is retired from the start.
+const NO_FRAME: ShearedRay = ShearedRay { origin: Vec3A::ZERO, dir: Vec3A::Z, axes: [0, 1, 2], shear: [0.0, 0.0, 1.0] };
+
+impl<'a, K: Copy> Rays<'a, K> {
+    /// The state of `rays` (one to [`PACKET`]) with the ends of range `t_max`, each ray keeping `kept`.
     #[inline(always)]
-    fn new(rays: &'a [Ray], t_max: &[f32]) -> Self {
-        let mut groups =
-            [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
-        for (g, chunk) in groups.iter_mut().zip(rays.chunks(4)) {
-            *g = RayGroup::new(chunk);
-        }
+    fn new(rays: &'a [Ray], t_max: &[f32], kept: K) -> Self {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
-        Self { rays, groups, t_max: ends, sheared: [None; PACKET] }
+        let sheared = std::array::from_fn(|i| match rays.get(i).map(ShearedRay::new) {
+            Some(Some(frame)) => frame,
+            _ => {
+                ends[i] = f32::NEG_INFINITY;
+                NO_FRAME
+            }
+        });
+        // Groups past the rays are never tested.
+        let groups =
+            std::array::from_fn(|g| RayGroup::new(rays.get(4 * g..).filter(|r| !r.is_empty()).unwrap_or(rays)));
+        Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
 
-    /// The largest end of range: no node entered beyond it can hold a closer hit for any ray.
-    fn t_max(&self) -> f32 {
-        self.t_max[..self.rays.len()].iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t))
-    }
-
-    /// Calls `test.test(i, first, count, sheared ray, t_max)` for each ray `i` that meets the box
+    /// Calls `test.test(kept, first, count, sheared ray, t_max)` for each ray that meets the box
     /// `bounds` of the leaf `(first, count)` within `[t_min, t_max[i]]` and sets its `t_max` to what
     /// `test` returns; returns the new largest one.
     #[inline(always)]
@@ -121,7 +138,7 @@ impl<'a> Rays<'a> {
         count: usize,
         negative: [bool; 3],
         t_min: f32,
-        test: &mut impl RayTest,
+        test: &mut impl RayTest<Kept = K>,
     ) -> f32 {
         let plane = |a: usize, far: bool| Vec4::splat(bounds[3 * (negative[a] != far) as usize + a]);
         let near_plane = [plane(0, false), plane(1, false), plane(2, false)];
@@ -134,11 +151,7 @@ impl<'a> Rays<'a> {
             let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
             for lane in set_bits(self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends)) {
                 let i = 4 * g + lane as usize;
-                let ray = &self.rays[i];
-                self.t_max[i] = match self.sheared[i].get_or_insert_with(|| ShearedRay::new(ray)) {
-                    Some(sheared) => test.test(i, first, count, sheared, self.t_max[i]),
-                    None => f32::NEG_INFINITY,
-                };
+                self.t_max[i] = test.test(&mut self.kept[i], first, count, &self.sheared[i], self.t_max[i]);
             }
             largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
         }
@@ -146,16 +159,24 @@ impl<'a> Rays<'a> {
     }
 }
 
-/// What a packet walk does for each ray that meets a leaf's box: `test(i, first, count, sheared ray,
-/// t_max)` tests the leaf (its index, triangle count) for ray `i` and returns the ray's new `t_max`
-/// (`-inf` retires the ray). Types whose method is always inlined, as [`LeafTest`]'s.
+/// What a packet walk does for each ray that meets a leaf's box: `test(kept, first, count, sheared ray,
+/// t_max)` tests the leaf (its index, triangle count) for the ray, whose record is `kept`, and returns
+/// the ray's new `t_max` (`-inf` retires the ray). Types whose method is always inlined, as
+/// [`LeafTest`]'s.
 trait RayTest {
-    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
+    /// What the walk keeps for each ray, [`RayTest::START`] at first.
+    type Kept: Copy;
+    const START: Self::Kept;
+
+    fn test(&mut self, kept: &mut Self::Kept, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
 }
 
 /// The leaf test of a packet walk: the leaf's box for the packet's rays, then `test` for each ray in it.
-struct PacketLeaf<'a, 'r, R> {
-    state: Rays<'r>,
+struct PacketLeaf<'a, 'r, R: RayTest> {
+    rays: &'r [Ray],
+    t_max: &'r [f32],
+    /// The rays' state, made at the first leaf.
+    state: Option<Rays<'r, R::Kept>>,
     leaf_bounds: &'a [[f32; 6]],
     negative: [bool; 3],
     t_min: f32,
@@ -166,7 +187,9 @@ impl<R: RayTest> LeafTest<()> for PacketLeaf<'_, '_, R> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, _: f32, _: &mut ()) -> f32 {
         let (first, count) = leaf_range(leaf);
-        self.state.each_in_box(&self.leaf_bounds[first], first, count, self.negative, self.t_min, &mut self.test)
+        let (rays, t_max) = (self.rays, self.t_max);
+        let state = self.state.get_or_insert_with(|| Rays::new(rays, t_max, R::START));
+        state.each_in_box(&self.leaf_bounds[first], first, count, self.negative, self.t_min, &mut self.test)
     }
 }
 
@@ -180,25 +203,23 @@ pub(super) struct Leaves<'a, const W: usize, N, F> {
     pub leaf_bounds: &'a [[f32; 6]],
 }
 
+/// A ray's closest hit so far, its leaf and candidate bit, as [`closest_in_leaf`] keeps it.
+pub(super) type Found = Option<(TriangleHit, u32, u32)>;
+
 /// Each ray's closest hit, kept as [`closest_in_leaf`] keeps it.
 struct Closest<'a, F> {
     filter: F,
     leaves: &'a [Leaf],
     t_min: f32,
-    found: &'a mut [Option<(TriangleHit, u32, u32)>],
 }
 
 impl<F: Filter> RayTest for Closest<'_, F> {
+    type Kept = Found;
+    const START: Found = None;
+
     #[inline(always)]
-    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
-        closest_in_leaf(
-            self.filter,
-            self.leaves,
-            (first, count),
-            sheared,
-            Interval::new(self.t_min, t_max),
-            &mut self.found[i],
-        )
+    fn test(&mut self, found: &mut Found, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
+        closest_in_leaf(self.filter, self.leaves, (first, count), sheared, Interval::new(self.t_min, t_max), found)
     }
 }
 
@@ -206,14 +227,17 @@ impl<F: Filter> RayTest for Closest<'_, F> {
 struct Occluded<'a, F> {
     filter: F,
     leaves: &'a [Leaf],
-    occluded: &'a mut [bool],
 }
 
 impl<F: Filter> RayTest for Occluded<'_, F> {
+    /// Whether the ray is occluded.
+    type Kept = bool;
+    const START: bool = false;
+
     #[inline(always)]
-    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
+    fn test(&mut self, occluded: &mut bool, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
         if self.filter.leaf_occluded(&self.leaves[first], count, sheared, Interval::new(0.0, t_max)) {
-            self.occluded[i] = true;
+            *occluded = true;
             f32::NEG_INFINITY
         } else {
             t_max
@@ -222,10 +246,11 @@ impl<F: Filter> RayTest for Occluded<'_, F> {
 }
 
 /// A packet query over the triangles, with its own arguments: the closest hit of each ray within
-/// `[t_min, t_max[i]]` (kept in `found[i]` as [`closest_in_leaf`] keeps it), or whether each ray is
-/// occluded within `(0, t_max[i])` (sets `occluded[i]` for those that are).
+/// `[t_min, t_max[i]]` (`report(i, hit)` for each ray `i` with one, the hit as [`closest_in_leaf`]
+/// keeps it), or whether each ray is occluded within `(0, t_max[i])` (sets `occluded[i]` for those
+/// that are).
 pub(super) enum PacketQuery<'a> {
-    Closest { t_min: f32, t_max: &'a [f32], found: &'a mut [Option<(TriangleHit, u32, u32)>] },
+    Closest { t_min: f32, t_max: &'a [f32], report: &'a mut dyn FnMut(usize, (TriangleHit, u32, u32)) },
     Occluded { t_max: &'a [f32], occluded: &'a mut [bool] },
 }
 
@@ -234,25 +259,46 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
     #[inline(always)]
     pub fn answer(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
         match query {
-            PacketQuery::Closest { t_min, t_max, found } => {
-                let test = Closest { filter: self.filter, leaves: self.leaves, t_min, found };
-                self.walk::<false>(rays, negative, t_min, t_max, test);
+            PacketQuery::Closest { t_min, t_max, report } => {
+                let test = Closest { filter: self.filter, leaves: self.leaves, t_min };
+                self.walk::<false, _>(rays, negative, t_min, t_max, test, |kept| {
+                    for (i, found) in kept.iter().enumerate() {
+                        if let Some(found) = *found {
+                            report(i, found);
+                        }
+                    }
+                });
             }
             PacketQuery::Occluded { t_max, occluded } => {
-                let test = Occluded { filter: self.filter, leaves: self.leaves, occluded };
-                self.walk::<true>(rays, negative, 0.0, t_max, test);
+                let test = Occluded { filter: self.filter, leaves: self.leaves };
+                self.walk::<true, _>(rays, negative, 0.0, t_max, test, |kept| {
+                    for (o, &kept) in occluded.iter_mut().zip(kept) {
+                        *o |= kept;
+                    }
+                });
             }
         }
     }
 
     /// Walks the packet `rays` (signs `negative`) down the tree; `test` tests each leaf for each ray
-    /// that meets its box. With `ANY`, the walk stops once every ray is retired.
+    /// that meets its box. With `ANY`, the walk stops once every ray is retired. Then, if the walk
+    /// reached a leaf, `finish` gets what the test kept for each ray.
     #[inline(always)]
-    fn walk<const ANY: bool>(&self, rays: &[Ray], negative: [bool; 3], t_min: f32, t_max: &[f32], test: impl RayTest) {
-        // The rays' state is made in place: it is a few kilobytes.
-        let mut leaf =
-            PacketLeaf { state: Rays::new(rays, t_max), leaf_bounds: self.leaf_bounds, negative, t_min, test };
-        let start = leaf.state.t_max();
+    fn walk<const ANY: bool, R: RayTest>(
+        &self,
+        rays: &[Ray],
+        negative: [bool; 3],
+        t_min: f32,
+        t_max: &[f32],
+        test: R,
+        finish: impl FnOnce(&[R::Kept]),
+    ) {
+        let mut leaf = PacketLeaf { rays, t_max, state: None, leaf_bounds: self.leaf_bounds, negative, t_min, test };
+        // The largest end of range: no node entered beyond it can hold a closer hit for any ray.
+        let start = t_max.iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
         self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
+        if let Some(state) = &leaf.state {
+            finish(&state.kept[..rays.len()]);
+        }
     }
 }
