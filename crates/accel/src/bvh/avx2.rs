@@ -655,6 +655,15 @@ fn prefetch<I>(simd: V3, item: &I) {
     }
 }
 
+/// Starts loading every cache line of `items` into all levels of the cache.
+#[inline(always)]
+pub(super) fn prefetch_slice<T>(simd: V3, items: &[T]) {
+    let p: *const i8 = items.as_ptr().cast();
+    for offset in (0..std::mem::size_of_val(items)).step_by(64) {
+        simd.sse._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(offset));
+    }
+}
+
 impl Filter for V3 {
     #[inline(always)]
     fn prefetch(self, leaf: &Leaf) {

@@ -271,6 +271,18 @@ impl Triangles {
         }
     }
 
+    /// Starts loading `items` into the cache where the kernel can (on CPUs of the AVX2 kernel): batch
+    /// queries load the next run's rays and answers while they answer this run.
+    #[inline(always)]
+    pub fn prefetch<T>(&self, items: &[T]) {
+        #[cfg(target_arch = "x86_64")]
+        if let TriangleTree::Avx2(simd, _) = &self.tree {
+            super::avx2::prefetch_slice(*simd, items);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = items;
+    }
+
     /// The hit and primitive of `found` (a hit, its leaf and candidate bit).
     #[inline(always)]
     pub fn hit(&self, (h, leaf, bit): (TriangleHit, u32, u32)) -> (Hit, u32) {

@@ -496,7 +496,15 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
 
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
-        for (rays, hits) in rays.chunks(stream::PACKET).zip(hits.chunks_mut(stream::PACKET)) {
+        let n = rays.len();
+        for start in (0..n).step_by(stream::PACKET) {
+            let (end, next) = ((start + stream::PACKET).min(n), (start + 2 * stream::PACKET).min(n));
+            if let Some(tris) = &self.triangles {
+                // The next run's rays and answers load while this run's rays walk.
+                tris.prefetch(&rays[end..next]);
+                tris.prefetch(&hits[end..next]);
+            }
+            let (rays, hits) = (&rays[start..end], &mut hits[start..end]);
             let Some(tris) = self.triangles.as_ref().filter(|_| !t_range.min.is_nan() && !t_range.max.is_nan()) else {
                 closest_ray_by_ray(self, rays, t_range, hits);
                 continue;
