@@ -3,13 +3,13 @@
 //! for four rays at a time and the leaf's triangles tested for each ray that meets the box, exactly as
 //! that ray alone would test them. Every ray gets the answer of the single-ray query.
 
-use glam::Vec4;
+use glam::{Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
 use super::leaf::{Filter, closest_in_leaf};
 use super::triangles::Leaf;
-use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals, set_bits};
+use super::wide::{LeafTest, NodeTest, WIDEN, WideTree, crosses_every_slab, leaf_range, set_bits};
 
 /// Rays per packet.
 pub(super) const PACKET: usize = 64;
@@ -59,20 +59,23 @@ struct RayGroup {
 
 impl RayGroup {
     /// The group of `rays` (one to four; missing lanes repeat the first ray).
+    #[inline(always)]
     fn new(rays: &[Ray]) -> Self {
         let lane = |i: usize| rays.get(i).unwrap_or(&rays[0]);
-        let mut g = Self { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] };
-        for i in 0..4 {
-            let ray = lane(i);
-            let (near, far) = reciprocals(ray.dir);
-            let (o, near, far) = (ray.origin.to_array(), near.to_array(), far.to_array());
-            for a in 0..3 {
-                g.origin[a][i] = o[a];
-                g.inv_near[a][i] = near[a];
-                g.inv_far[a][i] = far[a];
-            }
+        let (r0, r1, r2, r3) = (lane(0), lane(1), lane(2), lane(3));
+        // Each axis's coordinates of the four rays in one register: a transpose.
+        let by_axis = |a: Vec3A, b: Vec3A, c: Vec3A, d: Vec3A| {
+            let m = Mat4::from_cols(a.extend(0.0), b.extend(0.0), c.extend(0.0), d.extend(0.0)).transpose();
+            [m.x_axis, m.y_axis, m.z_axis]
+        };
+        let dir = by_axis(r0.dir, r1.dir, r2.dir, r3.dir);
+        // `reciprocals` lane by lane.
+        let inv_near = dir.map(|d| Vec4::ONE / d);
+        Self {
+            origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin),
+            inv_near,
+            inv_far: inv_near.map(|inv| inv * WIDEN),
         }
-        g
     }
 
     /// The lanes whose ray meets the box with near planes `near` and far planes `far` (by the rays'
@@ -113,16 +116,19 @@ impl<'a, K: Copy> Rays<'a, K> {
     fn new(rays: &'a [Ray], t_max: &[f32], kept: K) -> Self {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
-        let sheared = std::array::from_fn(|i| match rays.get(i).map(ShearedRay::new) {
-            Some(Some(frame)) => frame,
-            _ => {
-                ends[i] = f32::NEG_INFINITY;
-                NO_FRAME
+        let mut sheared = [NO_FRAME; PACKET];
+        for ((frame, end), ray) in sheared.iter_mut().zip(&mut ends).zip(rays) {
+            match ShearedRay::new(ray) {
+                Some(f) => *frame = f,
+                None => *end = f32::NEG_INFINITY,
             }
-        });
+        }
         // Groups past the rays are never tested.
-        let groups =
-            std::array::from_fn(|g| RayGroup::new(rays.get(4 * g..).filter(|r| !r.is_empty()).unwrap_or(rays)));
+        let mut groups =
+            [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
+        for (group, rays) in groups.iter_mut().zip(rays.chunks(4)) {
+            *group = RayGroup::new(rays);
+        }
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
 
@@ -187,8 +193,10 @@ impl<R: RayTest> LeafTest<()> for PacketLeaf<'_, '_, R> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, _: f32, _: &mut ()) -> f32 {
         let (first, count) = leaf_range(leaf);
-        let (rays, t_max) = (self.rays, self.t_max);
-        let state = self.state.get_or_insert_with(|| Rays::new(rays, t_max, R::START));
+        let state = match &mut self.state {
+            Some(state) => state,
+            state => state.insert(Rays::new(self.rays, self.t_max, R::START)),
+        };
         state.each_in_box(&self.leaf_bounds[first], first, count, self.negative, self.t_min, &mut self.test)
     }
 }

@@ -19,7 +19,7 @@ const EMPTY: u32 = u32::MAX;
 const STACK: usize = 512;
 
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
-const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
+pub(super) const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
 
 /// Most levels of inner nodes a tree may have: the binary build stays below this depth, and the
 /// walk's stack is sized for it.
