@@ -3,7 +3,7 @@
 //! for four rays at a time and the leaf's triangles tested for each ray that meets the box, exactly as
 //! that ray alone would test them. Every ray gets the answer of the single-ray query.
 
-use glam::{Mat4, Vec4};
+use glam::{BVec3A, Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
@@ -31,21 +31,32 @@ pub(super) fn common_signs(rays: &[Ray]) -> Option<[bool; 3]> {
 /// are unit vectors, mostly are); `None` if one is not.
 pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
     let first = rays.first()?;
-    let signs = first.dir.cmplt(Vec3A::ZERO).bitmask();
-    // Per ray, the checks of `Ray::is_valid`, `Ray::is_canonical`, `crosses_every_slab` and the signs
-    // in a few vector operations, without a branch: the rays are read once, in one stream. A canonical
-    // direction's largest component lies in `[0.5, 1)`, inside `is_valid`'s range; the comparisons
-    // with infinity fail on NaN, as `is_finite` does.
-    let (infinity, smallest) = (Vec3A::INFINITY, Vec3A::splat(f32::MIN_POSITIVE));
-    let expected = 7 << 3 | signs;
-    rays.iter()
-        .fold(true, |all, r| {
-            let d = r.dir.abs();
-            let finite = r.origin.abs().cmplt(infinity) & d.cmplt(infinity) & d.cmpge(smallest);
-            let bits = finite.bitmask() << 3 | r.dir.cmplt(Vec3A::ZERO).bitmask();
-            all & (bits == expected) & r.is_canonical() & !r.time.is_nan()
-        })
-        .then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
+    let first_negative = first.dir.cmplt(Vec3A::ZERO);
+    // The checks of `Ray::is_valid`, `Ray::is_canonical`, `crosses_every_slab` and the signs, gathered
+    // over the rays in registers without a branch or a mask per ray (the rays are read once, in one
+    // stream). A direction is canonical when each component is below 1 in magnitude and the largest
+    // reaches 0.5: inside `is_valid`'s range, and finite. The comparisons fail on NaN, as `is_finite`.
+    let (infinity, smallest, one) = (Vec3A::INFINITY, Vec3A::splat(f32::MIN_POSITIVE), Vec3A::ONE);
+    let mut in_range = BVec3A::TRUE;
+    let mut other_signs = BVec3A::FALSE;
+    let mut smallest_largest = f32::INFINITY;
+    let mut time_nan = false;
+    for r in rays {
+        let d = r.dir.abs();
+        in_range &= r.origin.abs().cmplt(infinity) & d.cmpge(smallest) & d.cmplt(one);
+        other_signs |= r.dir.cmplt(Vec3A::ZERO) ^ first_negative;
+        // A NaN component fails `in_range`: a plain comparison keeps the minimum without `f32::min`'s
+        // care for NaN.
+        let largest = d.max_element();
+        smallest_largest = if largest < smallest_largest { largest } else { smallest_largest };
+        time_nan |= r.time.is_nan();
+    }
+    let signs = first_negative.bitmask();
+    (in_range.all() && !other_signs.any() && smallest_largest >= 0.5 && !time_nan).then_some([
+        signs & 1 != 0,
+        signs & 2 != 0,
+        signs & 4 != 0,
+    ])
 }
 
 /// Four rays of a packet, lane by lane, for the box test of a leaf: each lane's answer is the one
@@ -307,6 +318,72 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
         self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
         if let Some(state) = &leaf.state {
             finish(&state.kept[..rays.len()]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// A component of a direction: zeros of both signs, subnormals, the ends of the canonical range,
+    /// infinities, NaN and any value.
+    fn arb_component() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            Just(0.0f32),
+            Just(-0.0f32),
+            Just(1e-40f32),
+            Just(0.5f32),
+            Just(-0.5f32),
+            Just(0.49999997f32),
+            Just(0.99999994f32),
+            Just(1.0f32),
+            Just(-1.0f32),
+            Just(f32::INFINITY),
+            Just(f32::NAN),
+            -1.0f32..1.0,
+            any::<f32>(),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The one-pass check answers as each ray's own checks: validity, a canonical direction,
+        /// crossing every slab and the first ray's signs.
+        #[test]
+        fn canonical_signs_are_each_rays_checks(
+            base in prop::array::uniform3(arb_component()),
+            scales in prop::collection::vec(prop::array::uniform3(prop_oneof![Just(1.0f32), 0.5f32..2.0]), 1..=6),
+            odd in prop::option::of((0usize..6, 0usize..3, arb_component())),
+            origin in prop::array::uniform3(prop_oneof![Just(0.0f32), Just(f32::INFINITY), Just(f32::NAN), -5.0f32..5.0]),
+            time in prop_oneof![Just(0.0f32), Just(f32::NAN), Just(f32::INFINITY)],
+            unit in any::<bool>(),
+        ) {
+            // Rays around one direction (so that their signs mostly agree), one component of one ray
+            // maybe replaced by any value.
+            let rays: Vec<Ray> = scales
+                .iter()
+                .enumerate()
+                .map(|(i, scale)| {
+                    let mut d = Vec3A::from_array(base) * Vec3A::from_array(*scale);
+                    if let Some((ray, axis, c)) = odd && ray == i {
+                        d[axis] = c;
+                    }
+                    let d = if unit && d.length() > 0.0 && d.length().is_finite() { d.normalize() } else { d };
+                    Ray { time, ..Ray::new(Vec3A::from_array(origin), d) }
+                })
+                .collect();
+            let signs = |r: &Ray| r.dir.cmplt(Vec3A::ZERO).bitmask();
+            let each = rays.iter().all(|r| {
+                r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && signs(r) == signs(&rays[0])
+            });
+            let expected = each.then(|| {
+                let s = signs(&rays[0]);
+                [s & 1 != 0, s & 2 != 0, s & 4 != 0]
+            });
+            prop_assert_eq!(canonical_signs(&rays), expected);
         }
     }
 }
