@@ -69,9 +69,10 @@ struct RayGroup {
 }
 
 impl RayGroup {
-    /// The group of `rays` (one to four; missing lanes repeat the first ray).
+    /// The group of `rays` (one to four; missing lanes repeat the first ray), and the rays'
+    /// directions by axis.
     #[inline(always)]
-    fn new(rays: &[Ray]) -> Self {
+    fn new(rays: &[Ray]) -> (Self, [Vec4; 3]) {
         let lane = |i: usize| rays.get(i).unwrap_or(&rays[0]);
         let (r0, r1, r2, r3) = (lane(0), lane(1), lane(2), lane(3));
         // Each axis's coordinates of the four rays in one register: a transpose.
@@ -82,11 +83,12 @@ impl RayGroup {
         let dir = by_axis(r0.dir, r1.dir, r2.dir, r3.dir);
         // `reciprocals` lane by lane.
         let inv_near = dir.map(|d| Vec4::ONE / d);
-        Self {
+        let group = Self {
             origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin),
             inv_near,
             inv_far: inv_near.map(|inv| inv * WIDEN),
-        }
+        };
+        (group, dir)
     }
 
     /// The lanes whose ray meets the box with near planes `near` and far planes `far` (by the rays'
@@ -101,6 +103,43 @@ impl RayGroup {
             far = tf.min(far);
         }
         near.cmple(far).bitmask()
+    }
+}
+
+/// The watertight frames of `rays` (one to four, directions `dir` by axis) into `frames`, each the
+/// one [`ShearedRay::new`] makes, with its operations lane by lane; the end of range of a ray that
+/// has none becomes `-inf` (its frame is left as it was).
+#[inline(always)]
+fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRay], ends: &mut [f32]) {
+    let (ax, ay, az) = (dx.abs(), dy.abs(), dz.abs());
+    // The axis of the largest component, ties as `ShearedRay::new` breaks them.
+    let (x_over_y, x_over_z, y_over_z) = (ax.cmpgt(ay), ax.cmpgt(az), ay.cmpgt(az));
+    let (along_x, along_y) = (x_over_y & x_over_z, !x_over_y & y_over_z);
+    let pick = |x: Vec4, y: Vec4, z: Vec4| Vec4::select(along_x, x, Vec4::select(along_y, y, z));
+    let d_z = pick(dx, dy, dz);
+    // The next two axes in turn, swapped where the largest component is negative.
+    let (next, after) = (pick(dy, dz, dx), pick(dz, dx, dy));
+    let negative = d_z.cmplt(Vec4::ZERO);
+    let (d_x, d_y) = (Vec4::select(negative, after, next), Vec4::select(negative, next, after));
+    let sz = Vec4::ONE / d_z;
+    let (sx, sy, sz) = ((d_x * sz).to_array(), (d_y * sz).to_array(), sz.to_array());
+    let usable = (d_z.cmpne(Vec4::ZERO) & d_z.abs().cmplt(Vec4::INFINITY)).bitmask();
+    let (along_x, along_y, negative) = (along_x.bitmask(), along_y.bitmask(), negative.bitmask());
+    for (l, ((frame, end), ray)) in frames.iter_mut().zip(ends).zip(rays).enumerate() {
+        if usable & (1 << l) == 0 {
+            *end = f32::NEG_INFINITY;
+            continue;
+        }
+        let kz = if along_x & (1 << l) != 0 {
+            0
+        } else if along_y & (1 << l) != 0 {
+            1
+        } else {
+            2
+        };
+        let (kx, ky) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let (kx, ky) = if negative & (1 << l) != 0 { (ky, kx) } else { (kx, ky) };
+        *frame = ShearedRay { origin: ray.origin, dir: ray.dir, axes: [kx, ky, kz], shear: [sx[l], sy[l], sz[l]] };
     }
 }
 
@@ -128,17 +167,14 @@ impl<'a, K: Copy> Rays<'a, K> {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
         let mut sheared = [NO_FRAME; PACKET];
-        for ((frame, end), ray) in sheared.iter_mut().zip(&mut ends).zip(rays) {
-            match ShearedRay::new(ray) {
-                Some(f) => *frame = f,
-                None => *end = f32::NEG_INFINITY,
-            }
-        }
         // Groups past the rays are never tested.
         let mut groups =
             [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
-        for (group, rays) in groups.iter_mut().zip(rays.chunks(4)) {
-            *group = RayGroup::new(rays);
+        let per_group = sheared.chunks_mut(4).zip(ends.chunks_mut(4));
+        for ((group, rays), (frames, ends)) in groups.iter_mut().zip(rays.chunks(4)).zip(per_group) {
+            let dir;
+            (*group, dir) = RayGroup::new(rays);
+            sheared_frames(rays, dir, frames, ends);
         }
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
@@ -350,6 +386,39 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The frames made four rays at a time are each ray's own, bit for bit, and a ray without one
+        /// retires: ties between the largest components, zeros, subnormals, infinities and NaN included.
+        #[test]
+        fn frames_of_a_group_are_each_rays(
+            dirs in prop::collection::vec(prop::array::uniform3(arb_component()), 1..=4),
+            ties in prop::collection::vec((0usize..3, 0usize..3, any::<bool>()), 4),
+        ) {
+            let rays: Vec<Ray> = dirs
+                .iter()
+                .zip(&ties)
+                .map(|(d, &(from, to, flip))| {
+                    let mut d = *d;
+                    d[to] = if flip { -d[from] } else { d[from] };
+                    Ray::new(Vec3A::new(1.0, -2.0, 3.0), Vec3A::from_array(d))
+                })
+                .collect();
+            let (_, dir) = RayGroup::new(&rays);
+            let (mut frames, mut ends) = ([NO_FRAME; 4], [1.0f32; 4]);
+            sheared_frames(&rays, dir, &mut frames, &mut ends);
+            for (i, ray) in rays.iter().enumerate() {
+                match ShearedRay::new(ray) {
+                    Some(f) => {
+                        prop_assert_eq!(ends[i], 1.0);
+                        prop_assert_eq!(frames[i].axes, f.axes);
+                        prop_assert_eq!(frames[i].shear.map(f32::to_bits), f.shear.map(f32::to_bits));
+                        prop_assert_eq!(frames[i].origin.to_array().map(f32::to_bits), f.origin.to_array().map(f32::to_bits));
+                        prop_assert_eq!(frames[i].dir.to_array().map(f32::to_bits), f.dir.to_array().map(f32::to_bits));
+                    }
+                    None => prop_assert_eq!(ends[i], f32::NEG_INFINITY),
+                }
+            }
+        }
+
         /// The one-pass check answers as each ray's own checks: validity, a canonical direction,
         /// crossing every slab and the first ray's signs.
         #[test]
