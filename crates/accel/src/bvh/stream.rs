@@ -212,6 +212,18 @@ impl<'a, K: Copy> Rays<'a, K> {
     }
 }
 
+/// The largest of `ends` (NaN ignored, as `f32::max` ignores it; `-inf` for none; either zero where
+/// the largest is zero), four at a time
+/// rather than in one chain of dependent maxima.
+#[inline(always)]
+fn largest(ends: &[f32]) -> f32 {
+    let chunks = ends.chunks_exact(4);
+    let rest = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
+    // maxps returns its second operand where the first is NaN.
+    let lanes = chunks.fold(Vec4::NEG_INFINITY, |m, c| Vec4::from_slice(c).max(m));
+    lanes.max_element().max(rest)
+}
+
 /// What a packet walk does for each ray that meets a leaf's box: `test(kept, first, count, sheared ray,
 /// t_max)` tests the leaf (its index, triangle count) for the ray, whose record is `kept`, and returns
 /// the ray's new `t_max` (`-inf` retires the ray). Types whose method is always inlined, as
@@ -350,7 +362,7 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
     ) {
         let mut leaf = PacketLeaf { rays, t_max, state: None, leaf_bounds: self.leaf_bounds, negative, t_min, test };
         // The largest end of range: no node entered beyond it can hold a closer hit for any ray.
-        let start = t_max.iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
+        let start = largest(t_max);
         self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
         if let Some(state) = &leaf.state {
             finish(&state.kept[..rays.len()]);
@@ -386,6 +398,16 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The largest end of a packet is the one `f32::max` folds to, NaN ignored (zeros of either
+        /// sign are one end: the walk only compares it).
+        #[test]
+        fn largest_end_is_the_folded_maximum(
+            ends in prop::collection::vec(prop_oneof![Just(f32::NAN), Just(f32::NEG_INFINITY), Just(f32::INFINITY), any::<f32>()], 0..=PACKET),
+        ) {
+            let folded = ends.iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
+            prop_assert_eq!(largest(&ends), folded);
+        }
+
         /// The frames made four rays at a time are each ray's own, bit for bit, and a ray without one
         /// retires: ties between the largest components, zeros, subnormals, infinities and NaN included.
         #[test]
