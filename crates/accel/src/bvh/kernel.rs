@@ -271,6 +271,16 @@ impl Triangles {
         }
     }
 
+    /// [`stream::canonical_signs`] of `rays`, by the kernel's instructions.
+    #[inline(always)]
+    pub fn canonical_signs(&self, rays: &[Ray]) -> Option<[bool; 3]> {
+        match &self.tree {
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(simd, _) => super::avx2::canonical_signs(*simd, rays),
+            _ => stream::canonical_signs(rays),
+        }
+    }
+
     /// Starts loading `items` into the cache where the kernel can (on CPUs of the AVX2 kernel): batch
     /// queries load the next run's rays and answers while they answer this run.
     #[inline(always)]

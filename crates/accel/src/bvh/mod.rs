@@ -408,7 +408,7 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
         };
-        if let Some(negative) = stream::canonical_signs(rays) {
+        if let Some(negative) = tris.canonical_signs(rays) {
             self.occluded_packet(tris, rays, negative, t_max, occluded);
             return;
         }
@@ -511,7 +511,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             };
             // Canonical rays (unit directions mostly are) walk as they are; others walk their
             // canonical forms when those share one scale.
-            if let Some(negative) = stream::canonical_signs(rays) {
+            if let Some(negative) = tris.canonical_signs(rays) {
                 self.closest_packet(tris, rays, negative, t_range, hits);
                 continue;
             }

@@ -371,7 +371,7 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use proptest::prelude::*;
 
     use super::*;
@@ -394,6 +394,52 @@ mod tests {
             -1.0f32..1.0,
             any::<f32>(),
         ]
+    }
+
+    /// Up to a packet's worth of rays around one direction (so that their signs mostly agree), one
+    /// component of one ray's direction or origin, or its time, maybe replaced by an odd value: zeros
+    /// of both signs, subnormals, the ends of the canonical range, infinities, NaN.
+    pub(in crate::bvh) fn arb_run() -> impl Strategy<Value = Vec<Ray>> {
+        (
+            prop::array::uniform3(arb_component()),
+            prop::collection::vec(prop::array::uniform3(prop_oneof![Just(1.0f32), 0.5f32..2.0]), 1..=9),
+            prop::option::of((0usize..9, 0usize..7, arb_component())),
+            prop::array::uniform3(prop_oneof![Just(0.0f32), -5.0f32..5.0]),
+            any::<bool>(),
+        )
+            .prop_map(|(base, scales, odd, origin, unit)| {
+                scales
+                    .iter()
+                    .enumerate()
+                    .map(|(i, scale)| {
+                        let mut d = Vec3A::from_array(base) * Vec3A::from_array(*scale);
+                        let mut ray = Ray::new(Vec3A::from_array(origin), d);
+                        if let Some((which, part, c)) = odd
+                            && which == i
+                        {
+                            match part {
+                                0..3 => d[part] = c,
+                                3..6 => ray.origin[part - 3] = c,
+                                _ => ray.time = c,
+                            }
+                        }
+                        ray.dir = if unit && d.length() > 0.0 && d.length().is_finite() { d.normalize() } else { d };
+                        ray
+                    })
+                    .collect()
+            })
+    }
+
+    /// [`canonical_signs`] by each ray's own checks.
+    pub(in crate::bvh) fn each_rays_checks(rays: &[Ray]) -> Option<[bool; 3]> {
+        let signs = |r: &Ray| r.dir.cmplt(Vec3A::ZERO).bitmask();
+        let each = rays
+            .iter()
+            .all(|r| r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && signs(r) == signs(&rays[0]));
+        each.then(|| {
+            let s = signs(&rays[0]);
+            [s & 1 != 0, s & 2 != 0, s & 4 != 0]
+        })
     }
 
     proptest! {
@@ -444,37 +490,8 @@ mod tests {
         /// The one-pass check answers as each ray's own checks: validity, a canonical direction,
         /// crossing every slab and the first ray's signs.
         #[test]
-        fn canonical_signs_are_each_rays_checks(
-            base in prop::array::uniform3(arb_component()),
-            scales in prop::collection::vec(prop::array::uniform3(prop_oneof![Just(1.0f32), 0.5f32..2.0]), 1..=6),
-            odd in prop::option::of((0usize..6, 0usize..3, arb_component())),
-            origin in prop::array::uniform3(prop_oneof![Just(0.0f32), Just(f32::INFINITY), Just(f32::NAN), -5.0f32..5.0]),
-            time in prop_oneof![Just(0.0f32), Just(f32::NAN), Just(f32::INFINITY)],
-            unit in any::<bool>(),
-        ) {
-            // Rays around one direction (so that their signs mostly agree), one component of one ray
-            // maybe replaced by any value.
-            let rays: Vec<Ray> = scales
-                .iter()
-                .enumerate()
-                .map(|(i, scale)| {
-                    let mut d = Vec3A::from_array(base) * Vec3A::from_array(*scale);
-                    if let Some((ray, axis, c)) = odd && ray == i {
-                        d[axis] = c;
-                    }
-                    let d = if unit && d.length() > 0.0 && d.length().is_finite() { d.normalize() } else { d };
-                    Ray { time, ..Ray::new(Vec3A::from_array(origin), d) }
-                })
-                .collect();
-            let signs = |r: &Ray| r.dir.cmplt(Vec3A::ZERO).bitmask();
-            let each = rays.iter().all(|r| {
-                r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && signs(r) == signs(&rays[0])
-            });
-            let expected = each.then(|| {
-                let s = signs(&rays[0]);
-                [s & 1 != 0, s & 2 != 0, s & 4 != 0]
-            });
-            prop_assert_eq!(canonical_signs(&rays), expected);
+        fn canonical_signs_are_each_rays_checks(rays in arb_run()) {
+            prop_assert_eq!(canonical_signs(&rays), each_rays_checks(&rays));
         }
     }
 }
