@@ -1,6 +1,7 @@
 //! The kernels for CPUs with AVX2: the box test of eight-wide nodes in 256-bit registers (the same
 //! operations as [`BoxRay`](super::wide::BoxRay)'s, on eight children at once), their children ordered
-//! by a sorting network, and the candidate filter of a leaf's two packets of triangles at once.
+//! by a sorting network, the candidate filter of a leaf's two packets of triangles at once, and the
+//! check that a run of rays can walk as a packet.
 //!
 //! Queries that use it run inside [`V3::vectorize`], which compiles them with AVX2 enabled; the token
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
