@@ -1,6 +1,7 @@
 //! The kernels for CPUs with AVX2: the box test of eight-wide nodes in 256-bit registers (the same
 //! operations as [`BoxRay`](super::wide::BoxRay)'s, on eight children at once), their children ordered
-//! by a sorting network, and the candidate filter of a leaf's eight triangles at once.
+//! by a sorting network, the candidate filter of a leaf's eight triangles at once, and the check that
+//! a run of rays can walk as a packet.
 //!
 //! Queries that use it run inside [`V3::vectorize`], which compiles them with AVX2 enabled; the token
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
@@ -300,17 +301,17 @@ fn answer_packet(
 }
 
 /// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
-struct PacketWalk<'a> {
+struct PacketWalk<'a, 'q> {
     simd: V3,
     tree: &'a WideTree<8>,
     leaves: &'a [Leaf],
     leaf_bounds: &'a [[f32; 6]],
     rays: &'a [Ray],
     negative: [bool; 3],
-    query: PacketQuery<'a>,
+    query: PacketQuery<'q>,
 }
 
-impl pulp::NullaryFnOnce for PacketWalk<'_> {
+impl pulp::NullaryFnOnce for PacketWalk<'_, '_> {
     type Output = ();
 
     #[inline(always)]
@@ -323,6 +324,59 @@ impl pulp::NullaryFnOnce for PacketWalk<'_> {
             leaf_bounds: self.leaf_bounds,
         };
         leaves.answer(self.rays, self.negative, self.query)
+    }
+}
+
+/// [`canonical_signs`](super::stream::canonical_signs) of `rays`, compiled with AVX2 enabled: each
+/// ray's origin and direction in one register, the checks gathered over the rays in registers.
+pub(super) fn canonical_signs(simd: V3, rays: &[Ray]) -> Option<[bool; 3]> {
+    simd.vectorize(CanonicalSigns { simd, rays })
+}
+
+/// [`canonical_signs`]' arguments, as a function object whose call is always inlined (see [`Walk`]).
+struct CanonicalSigns<'a> {
+    simd: V3,
+    rays: &'a [Ray],
+}
+
+impl pulp::NullaryFnOnce for CanonicalSigns<'_> {
+    type Output = Option<[bool; 3]>;
+
+    #[inline(always)]
+    fn call(self) -> Option<[bool; 3]> {
+        let avx = self.simd.avx;
+        let first = self.rays.first()?;
+        // Lanes 0-2: the origin; 4-6: the direction (lanes 3 and 7 are left out).
+        let both = |r: &Ray| avx._mm256_set_m128(r.dir.into(), r.origin.into());
+        let splat_halves = |lo: f32, hi: f32| avx._mm256_setr_ps(lo, lo, lo, lo, hi, hi, hi, hi);
+        // An origin is finite; a direction's components are at least the smallest normal and below
+        // 1 in magnitude, the largest reaching 0.5 (canonical, inside `Ray::is_valid`'s range, finite).
+        // The comparisons fail on NaN.
+        let below = splat_halves(f32::INFINITY, 1.0);
+        let from = splat_halves(f32::NEG_INFINITY, f32::MIN_POSITIVE);
+        let half = avx._mm256_set1_ps(0.5);
+        let sign = avx._mm256_set1_ps(-0.0);
+        let first_both = both(first);
+        let (mut in_range, mut other_signs) =
+            (avx._mm256_castsi256_ps(avx._mm256_set1_epi32(-1)), avx._mm256_setzero_ps());
+        let (mut reaches_half, mut time_nan) = (true, false);
+        for r in self.rays {
+            let v = both(r);
+            let a = avx._mm256_andnot_ps(sign, v);
+            let inside =
+                avx._mm256_and_ps(avx._mm256_cmp_ps::<_CMP_LT_OQ>(a, below), avx._mm256_cmp_ps::<_CMP_GE_OQ>(a, from));
+            in_range = avx._mm256_and_ps(in_range, inside);
+            // Every component of a direction within range is non-zero: its sign bit is its sign.
+            other_signs = avx._mm256_or_ps(other_signs, avx._mm256_xor_ps(v, first_both));
+            reaches_half &= avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GE_OQ>(a, half)) & 0x70 != 0;
+            time_nan |= r.time.is_nan();
+        }
+        let ok = avx._mm256_movemask_ps(in_range) & 0x77 == 0x77
+            && avx._mm256_movemask_ps(avx._mm256_and_ps(other_signs, sign)) & 0x70 == 0
+            && reaches_half
+            && !time_nan;
+        let signs = first.dir.cmplt(raylume_geometry::Vec3A::ZERO).bitmask();
+        ok.then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
     }
 }
 
@@ -651,6 +705,15 @@ fn prefetch<I>(simd: V3, item: &I) {
     }
 }
 
+/// Starts loading every cache line of `items` into all levels of the cache.
+#[inline(always)]
+pub(super) fn prefetch_slice<T>(simd: V3, items: &[T]) {
+    let p: *const i8 = items.as_ptr().cast();
+    for offset in (0..std::mem::size_of_val(items)).step_by(64) {
+        simd.sse._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.wrapping_add(offset));
+    }
+}
+
 impl Filter for V3 {
     #[inline(always)]
     fn prefetch(self, leaf: &Leaf) {
@@ -822,6 +885,13 @@ mod tests {
             let eight = simd.vectorize(|| BoxRay8::new(simd, &ray).intersect(&node, t_range.0, t_range.1));
             let four = BoxRay::new(&ray);
             matches_halves(eight, &boxes, |node| four.intersect(node, t_range.0, t_range.1))?;
+        }
+
+        /// The AVX check of a run of rays answers as each ray's own checks.
+        #[test]
+        fn vector_canonical_signs_are_each_rays_checks(rays in super::super::stream::tests::arb_run()) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            prop_assert_eq!(canonical_signs(simd, &rays), super::super::stream::tests::each_rays_checks(&rays));
         }
 
         /// The packet's eight-wide box test is the four-wide one on each half of the children.

@@ -271,6 +271,28 @@ impl Triangles {
         }
     }
 
+    /// [`stream::canonical_signs`] of `rays`, by the kernel's instructions.
+    #[inline(always)]
+    pub fn canonical_signs(&self, rays: &[Ray]) -> Option<[bool; 3]> {
+        match &self.tree {
+            #[cfg(target_arch = "x86_64")]
+            TriangleTree::Avx2(simd, _) => super::avx2::canonical_signs(*simd, rays),
+            _ => stream::canonical_signs(rays),
+        }
+    }
+
+    /// Starts loading `items` into the cache where the kernel can (on CPUs of the AVX2 kernel): batch
+    /// queries load the next run's rays and answers while they answer this run.
+    #[inline(always)]
+    pub fn prefetch<T>(&self, items: &[T]) {
+        #[cfg(target_arch = "x86_64")]
+        if let TriangleTree::Avx2(simd, _) = &self.tree {
+            super::avx2::prefetch_slice(*simd, items);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = items;
+    }
+
     /// The hit and primitive of `found` (a hit, its leaf and candidate bit).
     #[inline(always)]
     pub fn hit(&self, (h, leaf, bit): (TriangleHit, u32, u32)) -> (Hit, u32) {
@@ -379,14 +401,14 @@ impl<T: Tally> KernelVisitor for Occluded<'_, T> {
 }
 
 /// [`Triangles::answer_packet`]'s walk.
-struct Packet<'a> {
+struct Packet<'a, 'q> {
     tris: &'a Triangles,
     rays: &'a [Ray],
     negative: [bool; 3],
-    query: PacketQuery<'a>,
+    query: PacketQuery<'q>,
 }
 
-impl KernelVisitor for Packet<'_> {
+impl KernelVisitor for Packet<'_, '_> {
     type Output = ();
 
     #[inline(always)]

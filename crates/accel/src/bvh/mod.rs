@@ -360,15 +360,12 @@ impl<P: Intersect> Bvh<P> {
         } else {
             hits.fill(None);
         }
-        let mut found = [None; stream::PACKET];
         let (n, t_min) = (rays.len(), t_range.min);
-        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], found: &mut found[..n] });
-        for (hit, found) in hits.iter_mut().zip(&found) {
-            if let Some(found) = *found {
-                let (h, primitive) = tris.hit(found);
-                *hit = Some(PrimitiveHit { hit: h, primitive });
-            }
-        }
+        let mut report = |i: usize, found| {
+            let (hit, primitive) = tris.hit(found);
+            hits[i] = Some(PrimitiveHit { hit, primitive });
+        };
+        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report: &mut report });
     }
 
     /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`.
@@ -412,7 +409,7 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
         };
-        if let Some(negative) = stream::canonical_signs(rays) {
+        if let Some(negative) = tris.canonical_signs(rays) {
             self.occluded_packet(tris, rays, negative, t_max, occluded);
             return;
         }
@@ -508,14 +505,22 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
 
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
         assert_eq!(rays.len(), hits.len(), "one answer per ray");
-        for (rays, hits) in rays.chunks(stream::PACKET).zip(hits.chunks_mut(stream::PACKET)) {
+        let n = rays.len();
+        for start in (0..n).step_by(stream::PACKET) {
+            let (end, next) = ((start + stream::PACKET).min(n), (start + 2 * stream::PACKET).min(n));
+            if let Some(tris) = &self.triangles {
+                // The next run's rays and answers load while this run's rays walk.
+                tris.prefetch(&rays[end..next]);
+                tris.prefetch(&hits[end..next]);
+            }
+            let (rays, hits) = (&rays[start..end], &mut hits[start..end]);
             let Some(tris) = self.triangles.as_ref().filter(|_| !t_range.min.is_nan() && !t_range.max.is_nan()) else {
                 closest_ray_by_ray(self, rays, t_range, hits);
                 continue;
             };
             // Canonical rays (unit directions mostly are) walk as they are; others walk their
             // canonical forms when those share one scale.
-            if let Some(negative) = stream::canonical_signs(rays) {
+            if let Some(negative) = tris.canonical_signs(rays) {
                 self.closest_packet(tris, rays, negative, t_range, hits);
                 continue;
             }

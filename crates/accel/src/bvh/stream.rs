@@ -3,13 +3,13 @@
 //! for four rays at a time and the leaf's triangles tested for each ray that meets the box, exactly as
 //! that ray alone would test them. Every ray gets the answer of the single-ray query.
 
-use glam::Vec4;
+use glam::{BVec3A, Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
 use super::leaf::{Filter, closest_in_leaf};
 use super::triangles::Leaf;
-use super::wide::{LeafTest, NodeTest, WideTree, crosses_every_slab, leaf_range, reciprocals, set_bits};
+use super::wide::{LeafTest, NodeTest, WIDEN, WideTree, crosses_every_slab, leaf_range, set_bits};
 
 /// Rays per packet.
 pub(super) const PACKET: usize = 64;
@@ -31,12 +31,32 @@ pub(super) fn common_signs(rays: &[Ray]) -> Option<[bool; 3]> {
 /// are unit vectors, mostly are); `None` if one is not.
 pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
     let first = rays.first()?;
-    let signs = first.dir.cmplt(Vec3A::ZERO).bitmask();
-    rays.iter()
-        .all(|r| {
-            r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && r.dir.cmplt(Vec3A::ZERO).bitmask() == signs
-        })
-        .then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
+    let first_negative = first.dir.cmplt(Vec3A::ZERO);
+    // The checks of `Ray::is_valid`, `Ray::is_canonical`, `crosses_every_slab` and the signs, gathered
+    // over the rays in registers without a branch or a mask per ray (the rays are read once, in one
+    // stream). A direction is canonical when each component is below 1 in magnitude and the largest
+    // reaches 0.5: inside `is_valid`'s range, and finite. The comparisons fail on NaN, as `is_finite`.
+    let (infinity, smallest, one) = (Vec3A::INFINITY, Vec3A::splat(f32::MIN_POSITIVE), Vec3A::ONE);
+    let mut in_range = BVec3A::TRUE;
+    let mut other_signs = BVec3A::FALSE;
+    let mut smallest_largest = f32::INFINITY;
+    let mut time_nan = false;
+    for r in rays {
+        let d = r.dir.abs();
+        in_range &= r.origin.abs().cmplt(infinity) & d.cmpge(smallest) & d.cmplt(one);
+        other_signs |= r.dir.cmplt(Vec3A::ZERO) ^ first_negative;
+        // A NaN component fails `in_range`: a plain comparison keeps the minimum without `f32::min`'s
+        // care for NaN.
+        let largest = d.max_element();
+        smallest_largest = if largest < smallest_largest { largest } else { smallest_largest };
+        time_nan |= r.time.is_nan();
+    }
+    let signs = first_negative.bitmask();
+    (in_range.all() && !other_signs.any() && smallest_largest >= 0.5 && !time_nan).then_some([
+        signs & 1 != 0,
+        signs & 2 != 0,
+        signs & 4 != 0,
+    ])
 }
 
 /// Four rays of a packet, lane by lane, for the box test of a leaf: each lane's answer is the one
@@ -49,21 +69,26 @@ struct RayGroup {
 }
 
 impl RayGroup {
-    /// The group of `rays` (one to four; missing lanes repeat the first ray).
-    fn new(rays: &[Ray]) -> Self {
+    /// The group of `rays` (one to four; missing lanes repeat the first ray), and the rays'
+    /// directions by axis.
+    #[inline(always)]
+    fn new(rays: &[Ray]) -> (Self, [Vec4; 3]) {
         let lane = |i: usize| rays.get(i).unwrap_or(&rays[0]);
-        let mut g = Self { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] };
-        for i in 0..4 {
-            let ray = lane(i);
-            let (near, far) = reciprocals(ray.dir);
-            let (o, near, far) = (ray.origin.to_array(), near.to_array(), far.to_array());
-            for a in 0..3 {
-                g.origin[a][i] = o[a];
-                g.inv_near[a][i] = near[a];
-                g.inv_far[a][i] = far[a];
-            }
-        }
-        g
+        let (r0, r1, r2, r3) = (lane(0), lane(1), lane(2), lane(3));
+        // Each axis's coordinates of the four rays in one register: a transpose.
+        let by_axis = |a: Vec3A, b: Vec3A, c: Vec3A, d: Vec3A| {
+            let m = Mat4::from_cols(a.extend(0.0), b.extend(0.0), c.extend(0.0), d.extend(0.0)).transpose();
+            [m.x_axis, m.y_axis, m.z_axis]
+        };
+        let dir = by_axis(r0.dir, r1.dir, r2.dir, r3.dir);
+        // `reciprocals` lane by lane.
+        let inv_near = dir.map(|d| Vec4::ONE / d);
+        let group = Self {
+            origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin),
+            inv_near,
+            inv_far: inv_near.map(|inv| inv * WIDEN),
+        };
+        (group, dir)
     }
 
     /// The lanes whose ray meets the box with near planes `near` and far planes `far` (by the rays'
@@ -81,35 +106,80 @@ impl RayGroup {
     }
 }
 
-/// A packet's rays and what the walk keeps for each of them.
-struct Rays<'a> {
+/// The watertight frames of `rays` (one to four, directions `dir` by axis) into `frames`, each the
+/// one [`ShearedRay::new`] makes, with its operations lane by lane; the end of range of a ray that
+/// has none becomes `-inf` (its frame is left as it was).
+#[inline(always)]
+fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRay], ends: &mut [f32]) {
+    let (ax, ay, az) = (dx.abs(), dy.abs(), dz.abs());
+    // The axis of the largest component, ties as `ShearedRay::new` breaks them.
+    let (x_over_y, x_over_z, y_over_z) = (ax.cmpgt(ay), ax.cmpgt(az), ay.cmpgt(az));
+    let (along_x, along_y) = (x_over_y & x_over_z, !x_over_y & y_over_z);
+    let pick = |x: Vec4, y: Vec4, z: Vec4| Vec4::select(along_x, x, Vec4::select(along_y, y, z));
+    let d_z = pick(dx, dy, dz);
+    // The next two axes in turn, swapped where the largest component is negative.
+    let (next, after) = (pick(dy, dz, dx), pick(dz, dx, dy));
+    let negative = d_z.cmplt(Vec4::ZERO);
+    let (d_x, d_y) = (Vec4::select(negative, after, next), Vec4::select(negative, next, after));
+    let sz = Vec4::ONE / d_z;
+    let (sx, sy, sz) = ((d_x * sz).to_array(), (d_y * sz).to_array(), sz.to_array());
+    let usable = (d_z.cmpne(Vec4::ZERO) & d_z.abs().cmplt(Vec4::INFINITY)).bitmask();
+    let (along_x, along_y, negative) = (along_x.bitmask(), along_y.bitmask(), negative.bitmask());
+    for (l, ((frame, end), ray)) in frames.iter_mut().zip(ends).zip(rays).enumerate() {
+        if usable & (1 << l) == 0 {
+            *end = f32::NEG_INFINITY;
+            continue;
+        }
+        let kz = if along_x & (1 << l) != 0 {
+            0
+        } else if along_y & (1 << l) != 0 {
+            1
+        } else {
+            2
+        };
+        let (kx, ky) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let (kx, ky) = if negative & (1 << l) != 0 { (ky, kx) } else { (kx, ky) };
+        *frame = ShearedRay { origin: ray.origin, dir: ray.dir, axes: [kx, ky, kz], shear: [sx[l], sy[l], sz[l]] };
+    }
+}
+
+/// A packet's rays and what the walk keeps for each of them (`K`, see [`RayTest::Kept`]), made when
+/// the walk reaches its first leaf (most packets of a camera's rays reach none).
+struct Rays<'a, K> {
     rays: &'a [Ray],
     groups: [RayGroup; GROUPS],
     /// Each ray's end of range: it shrinks with the hits found; `-inf` retires the ray.
     t_max: [f32; PACKET],
-    /// Each ray's watertight frame, prepared at its first leaf (`Some(None)`: the ray has none).
-    sheared: [Option<Option<ShearedRay>>; PACKET],
+    /// Each ray's watertight frame ([`NO_FRAME`] where a ray has none: it is retired).
+    sheared: [ShearedRay; PACKET],
+    /// What the test keeps for each ray.
+    kept: [K; PACKET],
 }
 
-impl<'a> Rays<'a> {
+/// The frame held for a ray that has none (and for the slots past a short packet's rays): never
+/// tested, its ray is retired from the start.
+const NO_FRAME: ShearedRay = ShearedRay { origin: Vec3A::ZERO, dir: Vec3A::Z, axes: [0, 1, 2], shear: [0.0, 0.0, 1.0] };
+
+impl<'a, K: Copy> Rays<'a, K> {
+    /// The state of `rays` (one to [`PACKET`]) with the ends of range `t_max`, each ray keeping `kept`.
     #[inline(always)]
-    fn new(rays: &'a [Ray], t_max: &[f32]) -> Self {
-        let mut groups =
-            [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
-        for (g, chunk) in groups.iter_mut().zip(rays.chunks(4)) {
-            *g = RayGroup::new(chunk);
-        }
+    fn new(rays: &'a [Ray], t_max: &[f32], kept: K) -> Self {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
-        Self { rays, groups, t_max: ends, sheared: [None; PACKET] }
+        let mut sheared = [NO_FRAME; PACKET];
+        // Groups past the rays are never tested.
+        let mut groups =
+            [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
+        let per_group = sheared.chunks_mut(4).zip(ends.chunks_mut(4));
+        for ((group, rays), (frames, ends)) in groups.iter_mut().zip(rays.chunks(4)).zip(per_group) {
+            let dir;
+            (*group, dir) = RayGroup::new(rays);
+            sheared_frames(rays, dir, frames, ends);
+        }
+        Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
 
-    /// The largest end of range: no node entered beyond it can hold a closer hit for any ray.
-    fn t_max(&self) -> f32 {
-        self.t_max[..self.rays.len()].iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t))
-    }
-
-    /// Calls `test.test(i, first, count, sheared ray, t_max)` for each ray `i` that meets the box
+    /// Calls `test.test(kept, first, count, sheared ray, t_max)` for each ray that meets the box
     /// `bounds` of the leaf `(first, count)` within `[t_min, t_max[i]]` and sets its `t_max` to what
     /// `test` returns; returns the new largest one.
     #[inline(always)]
@@ -121,7 +191,7 @@ impl<'a> Rays<'a> {
         count: usize,
         negative: [bool; 3],
         t_min: f32,
-        test: &mut impl RayTest,
+        test: &mut impl RayTest<Kept = K>,
     ) -> f32 {
         let plane = |a: usize, far: bool| Vec4::splat(bounds[3 * (negative[a] != far) as usize + a]);
         let near_plane = [plane(0, false), plane(1, false), plane(2, false)];
@@ -134,11 +204,7 @@ impl<'a> Rays<'a> {
             let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
             for lane in set_bits(self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends)) {
                 let i = 4 * g + lane as usize;
-                let ray = &self.rays[i];
-                self.t_max[i] = match self.sheared[i].get_or_insert_with(|| ShearedRay::new(ray)) {
-                    Some(sheared) => test.test(i, first, count, sheared, self.t_max[i]),
-                    None => f32::NEG_INFINITY,
-                };
+                self.t_max[i] = test.test(&mut self.kept[i], first, count, &self.sheared[i], self.t_max[i]);
             }
             largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
         }
@@ -146,16 +212,36 @@ impl<'a> Rays<'a> {
     }
 }
 
-/// What a packet walk does for each ray that meets a leaf's box: `test(i, first, count, sheared ray,
-/// t_max)` tests the leaf (its index, triangle count) for ray `i` and returns the ray's new `t_max`
-/// (`-inf` retires the ray). Types whose method is always inlined, as [`LeafTest`]'s.
+/// The largest of `ends` (NaN ignored, as `f32::max` ignores it; `-inf` for none; either zero where
+/// the largest is zero), four at a time
+/// rather than in one chain of dependent maxima.
+#[inline(always)]
+fn largest(ends: &[f32]) -> f32 {
+    let chunks = ends.chunks_exact(4);
+    let rest = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
+    // maxps returns its second operand where the first is NaN.
+    let lanes = chunks.fold(Vec4::NEG_INFINITY, |m, c| Vec4::from_slice(c).max(m));
+    lanes.max_element().max(rest)
+}
+
+/// What a packet walk does for each ray that meets a leaf's box: `test(kept, first, count, sheared ray,
+/// t_max)` tests the leaf (its index, triangle count) for the ray, whose record is `kept`, and returns
+/// the ray's new `t_max` (`-inf` retires the ray). Types whose method is always inlined, as
+/// [`LeafTest`]'s.
 trait RayTest {
-    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
+    /// What the walk keeps for each ray, [`RayTest::START`] at first.
+    type Kept: Copy;
+    const START: Self::Kept;
+
+    fn test(&mut self, kept: &mut Self::Kept, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
 }
 
 /// The leaf test of a packet walk: the leaf's box for the packet's rays, then `test` for each ray in it.
-struct PacketLeaf<'a, 'r, R> {
-    state: Rays<'r>,
+struct PacketLeaf<'a, 'r, R: RayTest> {
+    rays: &'r [Ray],
+    t_max: &'r [f32],
+    /// The rays' state, made at the first leaf.
+    state: Option<Rays<'r, R::Kept>>,
     leaf_bounds: &'a [[f32; 6]],
     negative: [bool; 3],
     t_min: f32,
@@ -166,7 +252,11 @@ impl<R: RayTest> LeafTest<()> for PacketLeaf<'_, '_, R> {
     #[inline(always)]
     fn test(&mut self, leaf: u32, _: f32, _: &mut ()) -> f32 {
         let (first, count) = leaf_range(leaf);
-        self.state.each_in_box(&self.leaf_bounds[first], first, count, self.negative, self.t_min, &mut self.test)
+        let state = match &mut self.state {
+            Some(state) => state,
+            state => state.insert(Rays::new(self.rays, self.t_max, R::START)),
+        };
+        state.each_in_box(&self.leaf_bounds[first], first, count, self.negative, self.t_min, &mut self.test)
     }
 }
 
@@ -180,25 +270,23 @@ pub(super) struct Leaves<'a, const W: usize, N, F> {
     pub leaf_bounds: &'a [[f32; 6]],
 }
 
+/// A ray's closest hit so far, its leaf and candidate bit, as [`closest_in_leaf`] keeps it.
+pub(super) type Found = Option<(TriangleHit, u32, u32)>;
+
 /// Each ray's closest hit, kept as [`closest_in_leaf`] keeps it.
 struct Closest<'a, F> {
     filter: F,
     leaves: &'a [Leaf],
     t_min: f32,
-    found: &'a mut [Option<(TriangleHit, u32, u32)>],
 }
 
 impl<F: Filter> RayTest for Closest<'_, F> {
+    type Kept = Found;
+    const START: Found = None;
+
     #[inline(always)]
-    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
-        closest_in_leaf(
-            self.filter,
-            self.leaves,
-            (first, count),
-            sheared,
-            Interval::new(self.t_min, t_max),
-            &mut self.found[i],
-        )
+    fn test(&mut self, found: &mut Found, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
+        closest_in_leaf(self.filter, self.leaves, (first, count), sheared, Interval::new(self.t_min, t_max), found)
     }
 }
 
@@ -206,14 +294,17 @@ impl<F: Filter> RayTest for Closest<'_, F> {
 struct Occluded<'a, F> {
     filter: F,
     leaves: &'a [Leaf],
-    occluded: &'a mut [bool],
 }
 
 impl<F: Filter> RayTest for Occluded<'_, F> {
+    /// Whether the ray is occluded.
+    type Kept = bool;
+    const START: bool = false;
+
     #[inline(always)]
-    fn test(&mut self, i: usize, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
+    fn test(&mut self, occluded: &mut bool, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
         if self.filter.leaf_occluded(&self.leaves[first], count, sheared, Interval::new(0.0, t_max)) {
-            self.occluded[i] = true;
+            *occluded = true;
             f32::NEG_INFINITY
         } else {
             t_max
@@ -222,10 +313,11 @@ impl<F: Filter> RayTest for Occluded<'_, F> {
 }
 
 /// A packet query over the triangles, with its own arguments: the closest hit of each ray within
-/// `[t_min, t_max[i]]` (kept in `found[i]` as [`closest_in_leaf`] keeps it), or whether each ray is
-/// occluded within `(0, t_max[i])` (sets `occluded[i]` for those that are).
+/// `[t_min, t_max[i]]` (`report(i, hit)` for each ray `i` with one, the hit as [`closest_in_leaf`]
+/// keeps it), or whether each ray is occluded within `(0, t_max[i])` (sets `occluded[i]` for those
+/// that are).
 pub(super) enum PacketQuery<'a> {
-    Closest { t_min: f32, t_max: &'a [f32], found: &'a mut [Option<(TriangleHit, u32, u32)>] },
+    Closest { t_min: f32, t_max: &'a [f32], report: &'a mut dyn FnMut(usize, (TriangleHit, u32, u32)) },
     Occluded { t_max: &'a [f32], occluded: &'a mut [bool] },
 }
 
@@ -234,25 +326,172 @@ impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
     #[inline(always)]
     pub fn answer(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
         match query {
-            PacketQuery::Closest { t_min, t_max, found } => {
-                let test = Closest { filter: self.filter, leaves: self.leaves, t_min, found };
-                self.walk::<false>(rays, negative, t_min, t_max, test);
+            PacketQuery::Closest { t_min, t_max, report } => {
+                let test = Closest { filter: self.filter, leaves: self.leaves, t_min };
+                self.walk::<false, _>(rays, negative, t_min, t_max, test, |kept| {
+                    for (i, found) in kept.iter().enumerate() {
+                        if let Some(found) = *found {
+                            report(i, found);
+                        }
+                    }
+                });
             }
             PacketQuery::Occluded { t_max, occluded } => {
-                let test = Occluded { filter: self.filter, leaves: self.leaves, occluded };
-                self.walk::<true>(rays, negative, 0.0, t_max, test);
+                let test = Occluded { filter: self.filter, leaves: self.leaves };
+                self.walk::<true, _>(rays, negative, 0.0, t_max, test, |kept| {
+                    for (o, &kept) in occluded.iter_mut().zip(kept) {
+                        *o |= kept;
+                    }
+                });
             }
         }
     }
 
     /// Walks the packet `rays` (signs `negative`) down the tree; `test` tests each leaf for each ray
-    /// that meets its box. With `ANY`, the walk stops once every ray is retired.
+    /// that meets its box. With `ANY`, the walk stops once every ray is retired. Then, if the walk
+    /// reached a leaf, `finish` gets what the test kept for each ray.
     #[inline(always)]
-    fn walk<const ANY: bool>(&self, rays: &[Ray], negative: [bool; 3], t_min: f32, t_max: &[f32], test: impl RayTest) {
-        // The rays' state is made in place: it is a few kilobytes.
-        let mut leaf =
-            PacketLeaf { state: Rays::new(rays, t_max), leaf_bounds: self.leaf_bounds, negative, t_min, test };
-        let start = leaf.state.t_max();
+    fn walk<const ANY: bool, R: RayTest>(
+        &self,
+        rays: &[Ray],
+        negative: [bool; 3],
+        t_min: f32,
+        t_max: &[f32],
+        test: R,
+        finish: impl FnOnce(&[R::Kept]),
+    ) {
+        let mut leaf = PacketLeaf { rays, t_max, state: None, leaf_bounds: self.leaf_bounds, negative, t_min, test };
+        // The largest end of range: no node entered beyond it can hold a closer hit for any ray.
+        let start = largest(t_max);
         self.tree.walk::<ANY, _>(&self.frustum, t_min, start, &mut (), &mut leaf);
+        if let Some(state) = &leaf.state {
+            finish(&state.kept[..rays.len()]);
+        }
+    }
+}
+
+#[cfg(test)]
+pub(super) mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// A component of a direction: zeros of both signs, subnormals, the ends of the canonical range,
+    /// infinities, NaN and any value.
+    fn arb_component() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            Just(0.0f32),
+            Just(-0.0f32),
+            Just(1e-40f32),
+            Just(0.5f32),
+            Just(-0.5f32),
+            Just(0.49999997f32),
+            Just(0.99999994f32),
+            Just(1.0f32),
+            Just(-1.0f32),
+            Just(f32::INFINITY),
+            Just(f32::NAN),
+            -1.0f32..1.0,
+            any::<f32>(),
+        ]
+    }
+
+    /// Up to a packet's worth of rays around one direction (so that their signs mostly agree), one
+    /// component of one ray's direction or origin, or its time, maybe replaced by an odd value: zeros
+    /// of both signs, subnormals, the ends of the canonical range, infinities, NaN.
+    pub(in crate::bvh) fn arb_run() -> impl Strategy<Value = Vec<Ray>> {
+        (
+            prop::array::uniform3(arb_component()),
+            prop::collection::vec(prop::array::uniform3(prop_oneof![Just(1.0f32), 0.5f32..2.0]), 1..=9),
+            prop::option::of((0usize..9, 0usize..7, arb_component())),
+            prop::array::uniform3(prop_oneof![Just(0.0f32), -5.0f32..5.0]),
+            any::<bool>(),
+        )
+            .prop_map(|(base, scales, odd, origin, unit)| {
+                scales
+                    .iter()
+                    .enumerate()
+                    .map(|(i, scale)| {
+                        let mut d = Vec3A::from_array(base) * Vec3A::from_array(*scale);
+                        let mut ray = Ray::new(Vec3A::from_array(origin), d);
+                        if let Some((which, part, c)) = odd
+                            && which == i
+                        {
+                            match part {
+                                0..3 => d[part] = c,
+                                3..6 => ray.origin[part - 3] = c,
+                                _ => ray.time = c,
+                            }
+                        }
+                        ray.dir = if unit && d.length() > 0.0 && d.length().is_finite() { d.normalize() } else { d };
+                        ray
+                    })
+                    .collect()
+            })
+    }
+
+    /// [`canonical_signs`] by each ray's own checks.
+    pub(in crate::bvh) fn each_rays_checks(rays: &[Ray]) -> Option<[bool; 3]> {
+        let signs = |r: &Ray| r.dir.cmplt(Vec3A::ZERO).bitmask();
+        let each = rays
+            .iter()
+            .all(|r| r.is_valid() && r.is_canonical() && crosses_every_slab(r.dir) && signs(r) == signs(&rays[0]));
+        each.then(|| {
+            let s = signs(&rays[0]);
+            [s & 1 != 0, s & 2 != 0, s & 4 != 0]
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// The largest end of a packet is the one `f32::max` folds to, NaN ignored (zeros of either
+        /// sign are one end: the walk only compares it).
+        #[test]
+        fn largest_end_is_the_folded_maximum(
+            ends in prop::collection::vec(prop_oneof![Just(f32::NAN), Just(f32::NEG_INFINITY), Just(f32::INFINITY), any::<f32>()], 0..=PACKET),
+        ) {
+            let folded = ends.iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
+            prop_assert_eq!(largest(&ends), folded);
+        }
+
+        /// The frames made four rays at a time are each ray's own, bit for bit, and a ray without one
+        /// retires: ties between the largest components, zeros, subnormals, infinities and NaN included.
+        #[test]
+        fn frames_of_a_group_are_each_rays(
+            dirs in prop::collection::vec(prop::array::uniform3(arb_component()), 1..=4),
+            ties in prop::collection::vec((0usize..3, 0usize..3, any::<bool>()), 4),
+        ) {
+            let rays: Vec<Ray> = dirs
+                .iter()
+                .zip(&ties)
+                .map(|(d, &(from, to, flip))| {
+                    let mut d = *d;
+                    d[to] = if flip { -d[from] } else { d[from] };
+                    Ray::new(Vec3A::new(1.0, -2.0, 3.0), Vec3A::from_array(d))
+                })
+                .collect();
+            let (_, dir) = RayGroup::new(&rays);
+            let (mut frames, mut ends) = ([NO_FRAME; 4], [1.0f32; 4]);
+            sheared_frames(&rays, dir, &mut frames, &mut ends);
+            for (i, ray) in rays.iter().enumerate() {
+                match ShearedRay::new(ray) {
+                    Some(f) => {
+                        prop_assert_eq!(ends[i], 1.0);
+                        prop_assert_eq!(frames[i].axes, f.axes);
+                        prop_assert_eq!(frames[i].shear.map(f32::to_bits), f.shear.map(f32::to_bits));
+                        prop_assert_eq!(frames[i].origin.to_array().map(f32::to_bits), f.origin.to_array().map(f32::to_bits));
+                        prop_assert_eq!(frames[i].dir.to_array().map(f32::to_bits), f.dir.to_array().map(f32::to_bits));
+                    }
+                    None => prop_assert_eq!(ends[i], f32::NEG_INFINITY),
+                }
+            }
+        }
+
+        /// The one-pass check answers as each ray's own checks: validity, a canonical direction,
+        /// crossing every slab and the first ray's signs.
+        #[test]
+        fn canonical_signs_are_each_rays_checks(rays in arb_run()) {
+            prop_assert_eq!(canonical_signs(&rays), each_rays_checks(&rays));
+        }
     }
 }

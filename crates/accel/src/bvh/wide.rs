@@ -19,7 +19,7 @@ const EMPTY: u32 = u32::MAX;
 const STACK: usize = 512;
 
 /// pbrt's `1 + 2 gamma(3)`, which widens the far end of each slab against rounding.
-const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
+pub(super) const WIDEN: f32 = 1.0 + 2.0 * raylume_geometry::gamma(3);
 
 /// Most levels of inner nodes a tree may have: the binary build stays below this depth, and the
 /// walk's stack is sized for it.
@@ -261,17 +261,19 @@ impl Frustum {
     /// every slab.
     pub fn new(rays: &[Ray], negative: [bool; 3]) -> Self {
         let (mut o_min, mut o_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        let (mut near_min, mut near_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        let (mut far_min, mut far_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        let (mut d_min, mut d_max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
         for ray in rays {
             o_min = o_min.min(ray.origin);
             o_max = o_max.max(ray.origin);
-            let (near, far) = reciprocals(ray.dir);
-            near_min = near_min.min(near);
-            near_max = near_max.max(near);
-            far_min = far_min.min(far);
-            far_max = far_max.max(far);
+            d_min = d_min.min(ray.dir);
+            d_max = d_max.max(ray.dir);
         }
+        // The rays' reciprocals range between those of the extreme directions: on each side of zero
+        // (each axis's components share a sign and none is zero) `1 / d` falls as `d` grows, rounding
+        // included, and the far planes' factor is positive. So these are the smallest and largest of
+        // the rays' own `reciprocals`, bit for bit, for two divisions instead of one per ray.
+        let (near_min, far_min) = reciprocals(d_max);
+        let (near_max, far_max) = reciprocals(d_min);
         let (o_min, o_max) = (o_min.to_array(), o_max.to_array());
         let (near_min, near_max, far_min, far_max) =
             (near_min.to_array(), near_max.to_array(), far_min.to_array(), far_max.to_array());
@@ -798,6 +800,31 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(5_000))]
+        /// A packet's reciprocal bounds are the smallest and largest of its rays' own `reciprocals`,
+        /// bit for bit: tiny, huge and equal components of either sign included.
+        #[test]
+        fn frustum_bounds_are_the_rays_reciprocals(
+            dirs in prop::collection::vec(prop::array::uniform3(prop_oneof![
+                Just(f32::MIN_POSITIVE), Just(1.0f32), Just(f32::MAX), 1e-30f32..1e-20, 0.0001f32..1.0, 1e20f32..1e30,
+            ]), 1..=8),
+            signs in prop::array::uniform3(any::<bool>()),
+        ) {
+            let flip = Vec3A::from_array(signs.map(|s| if s { -1.0 } else { 1.0 }));
+            let rays: Vec<Ray> = dirs.iter().map(|d| Ray::new(Vec3A::ZERO, Vec3A::from_array(*d) * flip)).collect();
+            let f = Frustum::new(&rays, signs);
+            for a in 0..3 {
+                let ends = |i: usize, far: bool| {
+                    let (near, far_inv) = reciprocals(rays[i].dir);
+                    if far { far_inv[a] } else { near[a] }
+                };
+                for (far, [lo, hi]) in [(false, f.inv_near[a]), (true, f.inv_far[a])] {
+                    let lowest = (0..rays.len()).map(|i| ends(i, far)).fold(f32::INFINITY, f32::min);
+                    let highest = (0..rays.len()).map(|i| ends(i, far)).fold(f32::NEG_INFINITY, f32::max);
+                    prop_assert_eq!((lo.x.to_bits(), hi.x.to_bits()), (lowest.to_bits(), highest.to_bits()));
+                }
+            }
+        }
+
         /// A packet's box test passes every child that one of its rays passes, whatever the spread
         /// of the rays' origins and directions (one sign per axis), with entry distances no larger.
         #[test]
