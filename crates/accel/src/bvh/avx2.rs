@@ -13,7 +13,7 @@ use std::arch::x86_64::{__m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CM
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
-use super::stream::{Leaves, PacketQuery};
+use super::stream::{Leaves, PacketQuery, Report};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
 use crate::Tally;
@@ -42,7 +42,7 @@ impl Kernel<8> for V3 {
         tris: &Triangles,
         rays: &[Ray],
         negative: [bool; 3],
-        query: PacketQuery,
+        query: PacketQuery<impl Report>,
     ) {
         answer_packet(self, tree, &tris.leaves, &tris.leaf_bounds, rays, negative, query)
     }
@@ -295,23 +295,23 @@ fn answer_packet(
     leaf_bounds: &[[f32; 6]],
     rays: &[Ray],
     negative: [bool; 3],
-    query: PacketQuery,
+    query: PacketQuery<impl Report>,
 ) {
     simd.vectorize(PacketWalk { simd, tree, leaves, leaf_bounds, rays, negative, query })
 }
 
 /// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
-struct PacketWalk<'a, 'q> {
+struct PacketWalk<'a, 'q, R> {
     simd: V3,
     tree: &'a WideTree<8>,
     leaves: &'a [Leaf],
     leaf_bounds: &'a [[f32; 6]],
     rays: &'a [Ray],
     negative: [bool; 3],
-    query: PacketQuery<'q>,
+    query: PacketQuery<'q, R>,
 }
 
-impl pulp::NullaryFnOnce for PacketWalk<'_, '_> {
+impl<R: Report> pulp::NullaryFnOnce for PacketWalk<'_, '_, R> {
     type Output = ();
 
     #[inline(always)]

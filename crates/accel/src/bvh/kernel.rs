@@ -3,14 +3,14 @@
 //! once per kernel, with no dynamic dispatch per ray.
 
 use raylume_geometry::{Aabb, Ray, Triangle, Vec3A};
-use raylume_intersect::{Hit, TriangleHit, unit_normal};
+use raylume_intersect::{TriangleHit, unit_normal};
 
 use super::build::{BuildItem, BvhBuild, build_binary};
 use super::leaf::{ClosestLeaf, Filter, OccludedLeaf, Portable};
-use super::stream::{self, PacketQuery};
+use super::stream::{self, PacketQuery, Report};
 use super::triangles::{LANES, Leaf};
 use super::wide::{BoxRay, Frustum, LeafTest, WideTree, leaf_range, leaf_ref};
-use crate::Tally;
+use crate::{PrimitiveHit, Tally};
 
 /// Largest leaf of triangles: eight, one AVX register's lanes.
 pub(super) const MAX_TRIANGLE_LEAF: usize = 2 * LANES;
@@ -58,7 +58,14 @@ pub(super) trait Kernel<const W: usize>: Filter {
 
     /// Answers `query` for a packet of `rays` with the directions' signs `negative`
     /// ([`stream::Leaves::answer`]).
-    fn answer_packet(self, tree: &WideTree<W>, tris: &Triangles, rays: &[Ray], negative: [bool; 3], query: PacketQuery);
+    fn answer_packet(
+        self,
+        tree: &WideTree<W>,
+        tris: &Triangles,
+        rays: &[Ray],
+        negative: [bool; 3],
+        query: PacketQuery<impl Report>,
+    );
 }
 
 impl Kernel<4> for Portable {
@@ -83,7 +90,7 @@ impl Kernel<4> for Portable {
         tris: &Triangles,
         rays: &[Ray],
         negative: [bool; 3],
-        query: PacketQuery,
+        query: PacketQuery<impl Report>,
     ) {
         let leaves = stream::Leaves {
             tree,
@@ -293,11 +300,12 @@ impl Triangles {
         let _ = items;
     }
 
-    /// The hit and primitive of `found` (a hit, its leaf and candidate bit).
+    /// The hit and primitive of `found` (a hit, its leaf and candidate bit), as the queries report it.
     #[inline(always)]
-    pub fn hit(&self, (h, leaf, bit): (TriangleHit, u32, u32)) -> (Hit, u32) {
+    pub fn hit(&self, (h, leaf, bit): (TriangleHit, u32, u32)) -> PrimitiveHit {
         let (normals, leaf) = (&self.leaf_normals[leaf as usize], &self.leaves[leaf as usize]);
-        (h.hit_with_normal(&leaf.triangle(bit), Vec3A::from_array(normals[bit as usize])), leaf.id(bit))
+        let hit = h.hit_with_normal(&leaf.triangle(bit), Vec3A::from_array(normals[bit as usize]));
+        PrimitiveHit { hit, primitive: leaf.id(bit) }
     }
 
     /// The closest hit of `ray` within `[t_min, t_max]`, its leaf and candidate bit.
@@ -319,7 +327,7 @@ impl Triangles {
     }
 
     /// Answers `query` for a packet of `rays` with the directions' signs `negative`.
-    pub fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
+    pub fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery<impl Report>) {
         self.tree.visit(Packet { tris: self, rays, negative, query })
     }
 }
@@ -401,14 +409,14 @@ impl<T: Tally> KernelVisitor for Occluded<'_, T> {
 }
 
 /// [`Triangles::answer_packet`]'s walk.
-struct Packet<'a, 'q> {
+struct Packet<'a, 'q, R> {
     tris: &'a Triangles,
     rays: &'a [Ray],
     negative: [bool; 3],
-    query: PacketQuery<'q>,
+    query: PacketQuery<'q, R>,
 }
 
-impl KernelVisitor for Packet<'_, '_> {
+impl<R: Report> KernelVisitor for Packet<'_, '_, R> {
     type Output = ();
 
     #[inline(always)]

@@ -361,11 +361,8 @@ impl<P: Intersect> Bvh<P> {
             hits.fill(None);
         }
         let (n, t_min) = (rays.len(), t_range.min);
-        let mut report = |i: usize, found| {
-            let (hit, primitive) = tris.hit(found);
-            hits[i] = Some(PrimitiveHit { hit, primitive });
-        };
-        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report: &mut report });
+        let report = |i: usize, found| hits[i] = Some(tris.hit(found));
+        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report });
     }
 
     /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`.
@@ -386,7 +383,8 @@ impl<P: Intersect> Bvh<P> {
                 *end = t;
             }
         }
-        tris.answer_packet(rays, negative, PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded });
+        let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
+        tris.answer_packet(rays, negative, query);
         if self.others.is_some() {
             for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {
                 *o = *o || (!t.is_nan() && self.occluded_other(ray, t, &mut ()));
@@ -435,17 +433,13 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
 impl<P: Intersect> Bvh<P> {
     /// [`Accelerator::closest_hit_tally`] of a canonical ray.
     fn closest_canonical<T: Tally>(&self, ray: &Ray, mut t_range: Interval, tally: &mut T) -> Option<PrimitiveHit> {
-        let tri_hit = |tris: &Triangles, found| {
-            let (hit, primitive) = tris.hit(found);
-            PrimitiveHit { hit, primitive }
-        };
         if self.others.is_none() && self.unbounded.is_empty() {
             // A mesh: its triangles alone, and no hit to carry over.
             let tris = self.triangles.as_ref()?;
             if !self.may_meet_triangles(ray, t_range.min, t_range.max) {
                 return None;
             }
-            return tris.closest(ray, t_range.min, t_range.max, tally).map(|found| tri_hit(tris, found));
+            return tris.closest(ray, t_range.min, t_range.max, tally).map(|found| tris.hit(found));
         }
         let mut best = None;
         self.closest_other(ray, t_range, tally, &mut best);
@@ -456,7 +450,7 @@ impl<P: Intersect> Bvh<P> {
             && self.may_meet_triangles(ray, t_range.min, t_range.max)
         {
             if let Some(found) = tris.closest(ray, t_range.min, t_range.max, tally) {
-                PrimitiveHit::keep_closer(&mut best, tri_hit(tris, found));
+                PrimitiveHit::keep_closer(&mut best, tris.hit(found));
             }
         }
         best

@@ -312,26 +312,46 @@ impl<F: Filter> RayTest for Occluded<'_, F> {
     }
 }
 
+/// What a closest-hit packet query does with each ray's hit: `report(i, hit)` for ray `i`, the hit as
+/// [`closest_in_leaf`] keeps it. Closures are reports; the queries' one report is known where the
+/// packet walk is compiled, so each call is a direct one.
+pub(super) trait Report {
+    fn report(&mut self, i: usize, found: (TriangleHit, u32, u32));
+}
+
+/// The report of an occlusion query, which has no hits to report.
+impl Report for () {
+    #[inline(always)]
+    fn report(&mut self, _: usize, _: (TriangleHit, u32, u32)) {}
+}
+
+impl<F: FnMut(usize, (TriangleHit, u32, u32))> Report for F {
+    #[inline(always)]
+    fn report(&mut self, i: usize, found: (TriangleHit, u32, u32)) {
+        self(i, found)
+    }
+}
+
 /// A packet query over the triangles, with its own arguments: the closest hit of each ray within
 /// `[t_min, t_max[i]]` (`report(i, hit)` for each ray `i` with one, the hit as [`closest_in_leaf`]
 /// keeps it), or whether each ray is occluded within `(0, t_max[i])` (sets `occluded[i]` for those
 /// that are).
-pub(super) enum PacketQuery<'a> {
-    Closest { t_min: f32, t_max: &'a [f32], report: &'a mut dyn FnMut(usize, (TriangleHit, u32, u32)) },
+pub(super) enum PacketQuery<'a, R> {
+    Closest { t_min: f32, t_max: &'a [f32], report: R },
     Occluded { t_max: &'a [f32], occluded: &'a mut [bool] },
 }
 
 impl<const W: usize, N: NodeTest<W>, F: Filter> Leaves<'_, W, N, F> {
     /// Answers `query` for the packet `rays` (signs `negative`, see [`common_signs`]).
     #[inline(always)]
-    pub fn answer(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery) {
+    pub fn answer(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery<impl Report>) {
         match query {
-            PacketQuery::Closest { t_min, t_max, report } => {
+            PacketQuery::Closest { t_min, t_max, mut report } => {
                 let test = Closest { filter: self.filter, leaves: self.leaves, t_min };
                 self.walk::<false, _>(rays, negative, t_min, t_max, test, |kept| {
                     for (i, found) in kept.iter().enumerate() {
                         if let Some(found) = *found {
-                            report(i, found);
+                            report.report(i, found);
                         }
                     }
                 });
