@@ -97,15 +97,14 @@ impl Transform {
 /// assert_eq!(err.to_string(), "bad.obj:2: not a readable OBJ file (cannot parse a vertex position): 'v 1 x 0'");
 /// ```
 pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
+    // tobj turns a face's reference into an offset unchecked (a wrapping product, or a panic where
+    // overflow is checked), so references that point at nothing are refused here first. tobj still
+    // reads the lines before such a face, so an earlier malformed line is reported as the first.
+    let bad_face = first_dangling_reference(bytes);
+    let read = bad_face.map_or(bytes, |bad| &bytes[..bad.offset]);
     let options = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     let no_materials = |_: &Path| -> tobj::MTLLoadResult { Ok((Vec::new(), Default::default())) };
-    // tobj multiplies face indices unchecked: with overflow checks on (debug builds) a huge index
-    // panics inside it. That is reported as an unreadable file.
-    let read =
-        std::panic::catch_unwind(|| tobj::load_obj_buf(&mut std::io::BufReader::new(bytes), &options, no_materials))
-            .map_err(|_| {
-                SceneError::Invalid(format!("{name}: not a readable OBJ file (an index is out of any range)"))
-            })?;
+    let read = tobj::load_obj_buf(&mut std::io::BufReader::new(read), &options, no_materials);
     let (models, _materials) = read.map_err(|e| {
         let what = describe(&e);
         match locate(bytes, &e) {
@@ -116,6 +115,19 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
             None => SceneError::Invalid(format!("{name}: not a readable OBJ file ({what})")),
         }
     })?;
+    if let Some(bad) = bad_face {
+        let (kind, n) = (bad.kind, bad.count);
+        let expected = match n {
+            0 => format!("a face refers to a {kind}, and no {kind} precedes it"),
+            _ => format!("expected a {kind} reference from 1 to {n} or from -{n} to -1"),
+        };
+        return Err(SceneError::Invalid(format!(
+            "{name}:{}:{}: not a readable OBJ file ({expected}): '{}'",
+            bad.line,
+            bad.column,
+            crate::p3f::shown(bad.text.trim())
+        )));
+    }
     let path = Path::new(name);
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
@@ -181,6 +193,63 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
     Ok(Shape::Mesh { vertices, triangles, normals })
 }
 
+/// A face's reference to a position, texture coordinate or normal that is not there.
+#[derive(Clone, Copy)]
+struct DanglingReference<'a> {
+    /// The byte offset of the face's line.
+    offset: usize,
+    /// The line, from 1.
+    line: usize,
+    /// The column of the reference, from 1.
+    column: usize,
+    /// What it refers to: "vertex", "texture coordinate" or "normal".
+    kind: &'static str,
+    /// How many of those precede the face.
+    count: usize,
+    /// The face's line.
+    text: &'a str,
+}
+
+/// Whether the OBJ reference `word` (a face's `v`, `vt` or `vn` index) is one of the
+/// `count` entries before it: 1 to `count` or, counting back, -1 to -`count`. An empty reference
+/// (the `vt` of `v//vn`) is absent, not dangling.
+fn refers_to_one_of(word: &str, count: usize) -> bool {
+    word.is_empty() || word.parse::<i64>().is_ok_and(|k| k != 0 && k.unsigned_abs() <= count as u64)
+}
+
+/// The first face with a reference to an entry that does not precede it, counting entries as tobj
+/// does. Reading stops at the first line that is not UTF-8, where tobj stops.
+fn first_dangling_reference(bytes: &[u8]) -> Option<DanglingReference<'_>> {
+    const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    let mut counts = [0usize; 3];
+    let mut offset = 0;
+    for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+        let start = offset;
+        offset += raw.len() + 1;
+        let text = std::str::from_utf8(raw).ok()?;
+        let mut words = text.split_whitespace();
+        match words.next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            // tobj drops lines (`l`), and faces of one or two references, without following them.
+            Some("f") if text.split_whitespace().count() > 3 => {
+                for word in words {
+                    for (k, part) in word.split('/').enumerate().take(3) {
+                        if !refers_to_one_of(part, counts[k]) && part.parse::<i64>().is_ok() {
+                            let column = part.as_ptr() as usize - text.as_ptr() as usize + 1;
+                            let (kind, count) = (KINDS[k], counts[k]);
+                            return Some(DanglingReference { offset: start, line: i + 1, column, kind, count, text });
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
 fn describe(e: &tobj::LoadError) -> &'static str {
     use tobj::LoadError as E;
     match e {
@@ -226,10 +295,7 @@ fn locate<'a>(bytes: &'a [u8], e: &tobj::LoadError) -> Option<(usize, &'a str)> 
             }
             "f" => {
                 let refs: Vec<&str> = rest.split_whitespace().collect();
-                let in_range = |s: &str, count: i64| {
-                    s.is_empty()
-                        || s.parse::<i64>().is_ok_and(|k| k != 0 && (if k > 0 { k <= count } else { -k <= count }))
-                };
+                let in_range = |s: &str, count: i64| refers_to_one_of(s, count as usize);
                 let parses = |s: &str| s.is_empty() || s.parse::<i64>().is_ok_and(|k| k != 0);
                 match e {
                     E::InvalidPolygon => refs.len() < 3,

@@ -151,5 +151,53 @@ fn messages_show_invisible_characters_and_give_lines() {
     let e = p3f::parse(text, "nbsp.p3f", &Default::default()).unwrap_err().to_string();
     assert_eq!(e, "nbsp.p3f:3:5: expected a number (sphere centre y), found '0\\u{a0}0'");
     let e = obj::parse(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n", "far.obj").unwrap_err().to_string();
-    assert_eq!(e, "far.obj:5: not a readable OBJ file (a face refers to a vertex that is not there): 'f 1 2 9'");
+    assert_eq!(
+        e,
+        "far.obj:5:7: not a readable OBJ file (expected a vertex reference from 1 to 3 or from -3 to -1): 'f 1 2 9'"
+    );
+}
+
+/// Faces whose references point at nothing, including those whose offsets overflow (where
+/// overflow is checked, as in the fuzzer's builds, tobj would panic on them), are refused with the
+/// line and column of the reference; a malformed line before them is reported first.
+#[test]
+fn faces_referring_to_nothing_are_refused_where_they_are() {
+    let error = |text: &str| obj::parse(text.as_bytes(), "f.obj").unwrap_err().to_string();
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n";
+    let cases = [
+        (
+            "f 1//1 2//-5 3//1\n",
+            "5:11: not a readable OBJ file (expected a normal reference from 1 to 1 or from -1 to -1)",
+        ),
+        (
+            "f 1//0 2//1 3//1\n",
+            "5:6: not a readable OBJ file (expected a normal reference from 1 to 1 or from -1 to -1)",
+        ),
+        ("f 1 2 0\n", "5:7: not a readable OBJ file (expected a vertex reference from 1 to 3 or from -3 to -1)"),
+        (
+            "f 1 2 -9223372036854775808\n",
+            "5:7: not a readable OBJ file (expected a vertex reference from 1 to 3 or from -3 to -1)",
+        ),
+        (
+            "f 1 2 9223372036854775807\n",
+            "5:7: not a readable OBJ file (expected a vertex reference from 1 to 3 or from -3 to -1)",
+        ),
+        (
+            "f 1/6148914691236517206 2 3\n",
+            "5:5: not a readable OBJ file (a face refers to a texture coordinate, and no texture coordinate precedes it)",
+        ),
+    ];
+    for (face, expected) in cases {
+        let e = error(&format!("{head}{face}"));
+        assert!(e.starts_with(&format!("f.obj:{expected}")), "{face:?}: {e}");
+    }
+    // The first malformed line is the one reported.
+    let e = error(&format!("{head}v 1 x 0\nf 1 2 -7\n"));
+    assert_eq!(e, "f.obj:5: not a readable OBJ file (cannot parse a vertex position): 'v 1 x 0'");
+    // References counted back from the face, and faces of fewer than three references (which are
+    // dropped), are read as before.
+    let mesh = obj::parse(format!("{head}f -3//-1 -2//-1 -1//1\nf 1 9\n").as_bytes(), "f.obj").unwrap();
+    assert!(
+        matches!(mesh, Shape::Mesh { ref triangles, ref normals, .. } if triangles.len() == 1 && normals.len() == 1)
+    );
 }
