@@ -572,3 +572,61 @@ fn batches_match_single_rays_at_extreme_scales() {
     }
     assert!(hits > 2000, "the rays must hit things: {hits}");
 }
+
+/// The shapes other than triangles answer a packet bit for bit as they answer each of its rays:
+/// spheres, boxes and moving spheres among closed meshes, each shape also held twice (a tie its lower
+/// index wins), rays in tiles from a point and from a lens, with and without a minimum distance,
+/// shadow rays to one light from a patch of points.
+#[test]
+fn other_shapes_answer_packets_as_single_rays_bit_for_bit() {
+    let mut rng = Pcg32::new(41, 3);
+    let (mut hits, mut ties, mut occluded_count) = (0, 0, 0);
+    for n in [3usize, 12, 60] {
+        let mut prims: Vec<Primitive> =
+            random_scene(&mut rng, 5 * n).into_iter().filter(|p| !matches!(p, Primitive::Triangle(_))).collect();
+        let twins: Vec<Primitive> = prims.iter().step_by(2).cloned().collect();
+        let twin_ids = prims.len() as u32..(prims.len() + twins.len()) as u32;
+        prims.extend(twins);
+        let centre = point(&mut rng, 6.0);
+        prims.extend(tessellated_cube(centre, 2.0, 6).into_iter().map(Primitive::Triangle));
+        for kernel in [BvhKernel::Portable, BvhKernel::best()] {
+            for build in [BvhBuild::Sah, BvhBuild::Midpoint] {
+                let bvh = checked(Bvh::with_kernel(prims.clone(), Interval::new(0.0, 1.0), build, kernel));
+                for b in 0..40 {
+                    let origin = point(&mut rng, 18.0);
+                    let aim = point(&mut rng, 8.0);
+                    let rays = tile(&mut rng, origin, aim, [0.002, 0.05, 0.4][b % 3], [0.0, 0.3][b % 2], 8);
+                    let t_range = if b % 4 == 1 { Interval::new(3.0, 40.0) } else { Interval::POSITIVE };
+                    let mut got = vec![None; rays.len()];
+                    bvh.closest_hits(&rays, t_range, &mut got);
+                    for (ray, got) in rays.iter().zip(&got) {
+                        let expected = bvh.closest_hit(ray, t_range);
+                        let bits = |h: Option<PrimitiveHit>| {
+                            h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array().map(f32::to_bits)))
+                        };
+                        assert_eq!(bits(*got), bits(expected), "{kernel:?} {build:?}: {ray:?} in {t_range:?}");
+                        hits += got.is_some() as usize;
+                        ties += got.is_some_and(|h| twin_ids.contains(&h.primitive)) as usize;
+                    }
+                    // Shadow rays from a patch of points towards one light, each with its own end.
+                    let light = point(&mut rng, 20.0);
+                    let from = point(&mut rng, 8.0);
+                    let (mut shadow, mut ends) = (Vec::new(), Vec::new());
+                    for i in 0..64 {
+                        let p = from + point(&mut rng, [0.01, 0.3, 2.0][b % 3]);
+                        shadow.push(Ray::new(p, (light - p).normalize()));
+                        ends.push((light - p).length() * [1.0, 0.5, 2.0][i % 3]);
+                    }
+                    let mut occluded = vec![false; shadow.len()];
+                    bvh.occluded_each_within(&shadow, &ends, &mut occluded);
+                    for ((ray, &t), &o) in shadow.iter().zip(&ends).zip(&occluded) {
+                        assert_eq!(o, bvh.occluded(ray, t), "{kernel:?} {build:?}: occlusion of {ray:?} before {t}");
+                        occluded_count += o as usize;
+                    }
+                }
+            }
+        }
+    }
+    assert!(hits > 4_000 && occluded_count > 2_500, "the rays must hit things: {hits} hits, {occluded_count} occluded");
+    assert_eq!(ties, 0, "a shape held twice is reported under its lower index");
+}

@@ -37,7 +37,7 @@ use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
 use triangles::Leaf;
 pub(crate) use wide::FewShapes;
-use wide::{BoxRay, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+use wide::{BoxRay, Frustum, MAX_FIRST, WideTree, leaf_range, leaf_ref, reach};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 
@@ -81,6 +81,9 @@ const PACKET_SPREAD: f64 = 4.0;
 pub struct Bvh<P> {
     triangles: Option<Triangles>,
     others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
+    /// The box of each primitive of `others`, in its order, as its tree was built on it
+    /// (`[min, max]` by axis): packets of rays test a leaf's box against four rays at a time.
+    other_boxes: Vec<[f32; 6]>,
     /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
     /// primitive `i` of `others`, tested instead of walking their tree.
     flat_others: Option<FewShapes>,
@@ -89,6 +92,9 @@ pub struct Bvh<P> {
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
     /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
     triangles_box: Option<FewShapes>,
+    /// The box around the triangles, as a node of one shape: a packet whose rays all miss it skips
+    /// the triangles' walk, and the making of its rays' state.
+    triangles_node: Option<FewShapes>,
     /// Unbounded primitives and their input indices.
     unbounded: Vec<(P, u32)>,
     bounds: Aabb,
@@ -168,6 +174,13 @@ impl<P: Intersect + Clone> Bvh<P> {
             let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
         });
+        let other_boxes = items
+            .iter()
+            .map(|it| {
+                let (lo, hi) = (it.bounds.min, it.bounds.max);
+                [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
+            })
+            .collect();
         let flat_others = others
             .as_ref()
             .filter(|(_, p, _)| p.len() <= FLAT_OTHERS)
@@ -179,6 +192,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             }
             Some(FewShapes::new([b]))
         });
+        let triangles_node = triangles.as_ref().map(|t| FewShapes::new([t.bounds()]));
         let bounds = triangles
             .iter()
             .map(Triangles::bounds)
@@ -188,7 +202,17 @@ impl<P: Intersect + Clone> Bvh<P> {
             let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
             (PACKET_SPREAD * t.leaf_bounds.iter().map(size).sum::<f64>() / t.leaf_bounds.len().max(1) as f64) as f32
         });
-        Self { triangles, others, flat_others, triangles_box, unbounded, bounds, packet_spread }
+        Self {
+            triangles,
+            others,
+            other_boxes,
+            flat_others,
+            triangles_box,
+            triangles_node,
+            unbounded,
+            bounds,
+            packet_spread,
+        }
     }
 }
 
@@ -262,13 +286,12 @@ impl<P: Intersect> Bvh<P> {
         tally: &mut T,
         best: &mut Option<PrimitiveHit>,
     ) {
-        *best = None;
-        for (p, id) in &self.unbounded {
+        for _ in &self.unbounded {
             tally.tested();
-            if let Some(hit) = p.intersect_canonical(ray, t_range) {
-                t_range = t_range.with_max(hit.t);
-                PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: *id });
-            }
+        }
+        self.closest_unbounded(ray, t_range, best);
+        if let Some(b) = best {
+            t_range = t_range.with_max(b.hit.t);
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
             tally.visited();
@@ -292,6 +315,19 @@ impl<P: Intersect> Bvh<P> {
                 }
                 range.max
             });
+        }
+    }
+
+    /// The closest hit within `t_range` among the planes (the unbounded primitives), written to
+    /// `best` (`None` if there is none).
+    #[inline(always)]
+    fn closest_unbounded(&self, ray: &Ray, mut t_range: Interval, best: &mut Option<PrimitiveHit>) {
+        *best = None;
+        for (p, id) in &self.unbounded {
+            if let Some(hit) = p.intersect_canonical(ray, t_range) {
+                t_range = t_range.with_max(hit.t);
+                PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: *id });
+            }
         }
     }
 
@@ -350,19 +386,28 @@ impl<P: Intersect> Bvh<P> {
         t_range: Interval,
         hits: &mut [Option<PrimitiveHit>],
     ) {
-        // The other shapes ray by ray: their hits bound the triangles' walk.
+        // The planes ray by ray, then the other shapes as a packet: their hits bound the triangles' walk.
+        let (n, t_min) = (rays.len(), t_range.min);
         let mut t_max = [t_range.max; stream::PACKET];
-        if self.others.is_some() || !self.unbounded.is_empty() {
+        hits.fill(None);
+        if !self.unbounded.is_empty() {
             for ((ray, hit), t) in rays.iter().zip(hits.iter_mut()).zip(&mut t_max) {
-                self.closest_other(ray, t_range, &mut (), hit);
+                self.closest_unbounded(ray, t_range, hit);
                 *t = hit.map_or(t_range.max, |h| h.hit.t);
             }
-        } else {
-            hits.fill(None);
         }
-        let (n, t_min) = (rays.len(), t_range.min);
-        let report = |i: usize, found| hits[i] = Some(tris.hit(found));
-        tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report });
+        let frustum = Frustum::new(rays, negative);
+        if let Some((tree, prims, ids)) = &self.others {
+            let shapes = (&prims[..], &ids[..], &self.other_boxes[..]);
+            stream::closest_by_shapes(&frustum, tree, shapes, rays, negative, t_min, &mut t_max[..n], hits);
+        }
+        if self
+            .triangles_node
+            .is_none_or(|node| node.meets_packet(&frustum, t_min, reach(stream::largest(&t_max[..n]))))
+        {
+            let report = |i: usize, found| hits[i] = Some(tris.hit(found));
+            tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report });
+        }
     }
 
     /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`.
@@ -383,12 +428,13 @@ impl<P: Intersect> Bvh<P> {
                 *end = t;
             }
         }
-        let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
-        tris.answer_packet(rays, negative, query);
-        if self.others.is_some() {
-            for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {
-                *o = *o || (!t.is_nan() && self.occluded_other(ray, t, &mut ()));
-            }
+        let frustum = Frustum::new(rays, negative);
+        if self.triangles_node.is_none_or(|node| node.meets_packet(&frustum, 0.0, stream::largest(&ends))) {
+            let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
+            tris.answer_packet(rays, negative, query);
+        }
+        if let Some((tree, prims, _)) = &self.others {
+            stream::occluded_by_shapes(&frustum, tree, prims, &self.other_boxes, rays, negative, t_max, occluded);
         }
     }
 }

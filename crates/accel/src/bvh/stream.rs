@@ -5,11 +5,12 @@
 
 use glam::{BVec3A, Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
-use raylume_intersect::{ShearedRay, TriangleHit};
+use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
 
 use super::leaf::{Filter, closest_in_leaf};
 use super::triangles::Leaf;
-use super::wide::{LeafTest, NodeTest, WIDEN, WideTree, crosses_every_slab, leaf_range, set_bits};
+use super::wide::{Frustum, LeafTest, NodeTest, WIDEN, WideTree, crosses_every_slab, leaf_range, set_bits};
+use crate::PrimitiveHit;
 
 /// Rays per packet.
 pub(super) const PACKET: usize = 64;
@@ -212,11 +213,135 @@ impl<'a, K: Copy> Rays<'a, K> {
     }
 }
 
+/// Whether each ray of a packet hits one of `prims` (the shapes other than triangles, their tree
+/// `tree`, `boxes[i]` the box of `prims[i]` as the tree was built on it) within `(0, t_max[i])`: sets
+/// `occluded[i]` for those that do, and leaves the rays already occluded (and those whose end is NaN)
+/// as they are. The packet walks the tree once ([`Frustum`]); at each leaf, the rays that meet its
+/// box, four at a time, test its shapes as the single-ray query does; `frustum` is the packet's. The answer is each ray's own: a
+/// shape's hit lies inside its box, which every walk tests conservatively.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn occluded_by_shapes<P: Intersect>(
+    frustum: &Frustum,
+    tree: &WideTree<4>,
+    prims: &[P],
+    boxes: &[[f32; 6]],
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_max: &[f32],
+    occluded: &mut [bool],
+) {
+    let n = rays.len();
+    let mut ends = [f32::NEG_INFINITY; PACKET];
+    for ((end, &t), &o) in ends.iter_mut().zip(t_max).zip(occluded.iter()) {
+        if !o && !t.is_nan() {
+            *end = t;
+        }
+    }
+    let start = largest(&ends[..n]);
+    if start == f32::NEG_INFINITY {
+        return;
+    }
+    let groups = ray_groups(rays);
+    let mut leaf = |leaf: u32, _: f32, _: &mut ()| {
+        let (first, count) = leaf_range(leaf);
+        let shapes = &prims[first..first + count];
+        let (near_plane, far_plane) = leaf_planes(&boxes[first..first + count], negative);
+        let mut largest_end = Vec4::NEG_INFINITY;
+        for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
+            let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
+            for lane in set_bits(group.hits(near_plane, far_plane, Vec4::ZERO, lanes)) {
+                let i = 4 * g + lane as usize;
+                if shapes.iter().any(|p| p.occluded_canonical(&rays[i], t_max[i])) {
+                    occluded[i] = true;
+                    ends[i] = f32::NEG_INFINITY;
+                }
+            }
+            largest_end = largest_end.max(Vec4::from_slice(&ends[4 * g..4 * g + 4]));
+        }
+        // Below zero once every ray is occluded: the walk ends.
+        largest_end.max_element()
+    };
+    tree.walk::<true, ()>(frustum, 0.0, start, &mut (), &mut leaf);
+}
+
+/// The closest hit of each ray of a packet among `prims` (the shapes other than triangles, as for
+/// [`occluded_by_shapes`]; `ids` their input indices) within `[t_min, t_max[i]]`, kept in `hits[i]`
+/// as [`PrimitiveHit::keep_closer`] keeps it, `t_max[i]` narrowed to its distance. The packet walks
+/// the tree once, nearest box first; at each leaf, the rays that meet its box (up to the few ulps past
+/// their closest hit that the single-ray walk reaches), four at a time, test its shapes. Each ray gets
+/// the closest of its shapes' hits, ties to the lowest index, as the single-ray query does in any order.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn closest_by_shapes<P: Intersect>(
+    frustum: &Frustum,
+    tree: &WideTree<4>,
+    (prims, ids, boxes): (&[P], &[u32], &[[f32; 6]]),
+    rays: &[Ray],
+    negative: [bool; 3],
+    t_min: f32,
+    t_max: &mut [f32],
+    hits: &mut [Option<PrimitiveHit>],
+) {
+    let n = rays.len();
+    let mut ends = [f32::NEG_INFINITY; PACKET];
+    ends[..n].copy_from_slice(t_max);
+    let groups = ray_groups(rays);
+    let t_min_lanes = Vec4::splat(t_min);
+    let start = largest(&ends[..n]);
+    let mut leaf = |leaf: u32, _: f32, _: &mut ()| {
+        let (first, count) = leaf_range(leaf);
+        let (near_plane, far_plane) = leaf_planes(&boxes[first..first + count], negative);
+        let mut largest_end = Vec4::NEG_INFINITY;
+        for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
+            let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
+            let reach = lanes + lanes.abs() * Vec4::splat(2.0 * gamma(3));
+            for lane in set_bits(group.hits(near_plane, far_plane, t_min_lanes, reach)) {
+                let i = 4 * g + lane as usize;
+                for k in first..first + count {
+                    if let Some(hit) = prims[k].intersect_canonical(&rays[i], Interval::new(t_min, ends[i])) {
+                        ends[i] = hit.t;
+                        PrimitiveHit::keep_closer(&mut hits[i], PrimitiveHit { hit, primitive: ids[k] });
+                    }
+                }
+            }
+            largest_end = largest_end.max(Vec4::from_slice(&ends[4 * g..4 * g + 4]));
+        }
+        largest_end.max_element()
+    };
+    tree.walk::<false, ()>(frustum, t_min, start, &mut (), &mut leaf);
+    t_max.copy_from_slice(&ends[..n]);
+}
+
+/// The box-test groups of a packet's `rays` (those past the rays are never tested).
+#[inline(always)]
+fn ray_groups(rays: &[Ray]) -> [RayGroup; GROUPS] {
+    let mut groups =
+        [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
+    for (group, rays) in groups.iter_mut().zip(rays.chunks(4)) {
+        *group = RayGroup::new(rays).0;
+    }
+    groups
+}
+
+/// The near and far planes, by the rays' signs `negative`, of the box around `boxes` (`[min, max]`
+/// by axis), as [`RayGroup::hits`] takes them.
+#[inline(always)]
+fn leaf_planes(boxes: &[[f32; 6]], negative: [bool; 3]) -> ([Vec4; 3], [Vec4; 3]) {
+    let mut bounds = boxes[0];
+    for b in &boxes[1..] {
+        for a in 0..3 {
+            bounds[a] = bounds[a].min(b[a]);
+            bounds[3 + a] = bounds[3 + a].max(b[3 + a]);
+        }
+    }
+    let plane = |a: usize, far: bool| Vec4::splat(bounds[3 * (negative[a] != far) as usize + a]);
+    ([plane(0, false), plane(1, false), plane(2, false)], [plane(0, true), plane(1, true), plane(2, true)])
+}
+
 /// The largest of `ends` (NaN ignored, as `f32::max` ignores it; `-inf` for none; either zero where
 /// the largest is zero), four at a time
 /// rather than in one chain of dependent maxima.
 #[inline(always)]
-fn largest(ends: &[f32]) -> f32 {
+pub(super) fn largest(ends: &[f32]) -> f32 {
     let chunks = ends.chunks_exact(4);
     let rest = chunks.remainder().iter().fold(f32::NEG_INFINITY, |m, &t| m.max(t));
     // maxps returns its second operand where the first is NaN.

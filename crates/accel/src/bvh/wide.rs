@@ -122,6 +122,13 @@ impl FewShapes {
         BoxRay::new(ray).intersect(&self.0, t_min, reach(t_max)).1 != 0
     }
 
+    /// Whether a ray of the packet `frustum` may meet a box within `[t_min, t_max]`: `false` only
+    /// where none of its rays does ([`Frustum`]'s test is conservative).
+    #[inline(always)]
+    pub(super) fn meets_packet(&self, frustum: &Frustum, t_min: f32, t_max: f32) -> bool {
+        frustum.intersect(&self.0, t_min, t_max).1 != 0
+    }
+
     /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]`, tried in slot
     /// order.
     #[inline(always)]
