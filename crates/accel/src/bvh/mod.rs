@@ -102,6 +102,9 @@ pub struct Bvh<P> {
     /// triangles as a packet ([`Accelerator::occluded_each_within`]): [`PACKET_SPREAD`] times the
     /// mean size of a leaf's box.
     packet_spread: f32,
+    /// The same for the shapes other than triangles ([`PACKET_SPREAD`] times the mean size of their
+    /// boxes): shadow rays from points further apart test those shapes ray by ray.
+    others_spread: f32,
 }
 
 impl<P: Intersect + Clone> Bvh<P> {
@@ -174,7 +177,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
         });
-        let other_boxes = items
+        let other_boxes: Vec<[f32; 6]> = items
             .iter()
             .map(|it| {
                 let (lo, hi) = (it.bounds.min, it.bounds.max);
@@ -198,10 +201,8 @@ impl<P: Intersect + Clone> Bvh<P> {
             .map(Triangles::bounds)
             .chain(others.iter().map(|(t, _, _)| t.bounds()))
             .fold(Aabb::EMPTY, Aabb::union);
-        let packet_spread = triangles.as_ref().map_or(0.0, |t| {
-            let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
-            (PACKET_SPREAD * t.leaf_bounds.iter().map(size).sum::<f64>() / t.leaf_bounds.len().max(1) as f64) as f32
-        });
+        let packet_spread = triangles.as_ref().map_or(0.0, |t| mean_size(&t.leaf_bounds) * PACKET_SPREAD as f32);
+        let others_spread = mean_size(&other_boxes) * PACKET_SPREAD as f32;
         Self {
             triangles,
             others,
@@ -212,6 +213,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             unbounded,
             bounds,
             packet_spread,
+            others_spread,
         }
     }
 }
@@ -352,6 +354,12 @@ impl<P: Intersect> Bvh<P> {
     }
 }
 
+/// The mean of the largest extent of `boxes` (`[min, max]` by axis); zero for none.
+fn mean_size(boxes: &[[f32; 6]]) -> f32 {
+    let size = |b: &[f32; 6]| (b[3] - b[0]).max(b[4] - b[1]).max(b[5] - b[2]) as f64;
+    (boxes.iter().map(size).sum::<f64>() / boxes.len().max(1) as f64) as f32
+}
+
 /// Whether the directions of `rays` (at least one) have the same sign along each axis, as their
 /// canonical forms then do (a power of two keeps the signs): rays whose signs differ never walk as a
 /// packet, and are not worth their canonical forms.
@@ -410,7 +418,8 @@ impl<P: Intersect> Bvh<P> {
         }
     }
 
-    /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`.
+    /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`;
+    /// the shapes other than triangles as a packet too if `others_together`, else ray by ray.
     fn occluded_packet(
         &self,
         tris: &Triangles,
@@ -418,6 +427,7 @@ impl<P: Intersect> Bvh<P> {
         negative: [bool; 3],
         t_max: &[f32],
         occluded: &mut [bool],
+        others_together: bool,
     ) {
         // Planes first, as the single-ray query does; rays they occlude leave the walk, and so do rays
         // with a NaN end, which nothing occludes.
@@ -433,8 +443,16 @@ impl<P: Intersect> Bvh<P> {
             let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
             tris.answer_packet(rays, negative, query);
         }
-        if let Some((tree, prims, _)) = &self.others {
-            stream::occluded_by_shapes(&frustum, tree, prims, &self.other_boxes, rays, negative, t_max, occluded);
+        match &self.others {
+            Some((tree, prims, _)) if others_together => {
+                stream::occluded_by_shapes(&frustum, tree, prims, &self.other_boxes, rays, negative, t_max, occluded);
+            }
+            Some(_) => {
+                for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {
+                    *o = *o || (!t.is_nan() && self.occluded_other(ray, t, &mut ()));
+                }
+            }
+            None => {}
         }
     }
 }
@@ -443,18 +461,23 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
     /// [`Accelerator::occluded_each_within`] for up to a packet of rays, walked as a packet if their
     /// origins spread no more than `spread` along each axis.
     fn occluded_chunk(&self, rays: &[Ray], t_max: &[f32], occluded: &mut [bool], spread: f32) {
-        let spread_ok = spread == f32::INFINITY || {
+        let origins = if spread == f32::INFINITY && self.others.is_none() {
+            0.0
+        } else {
             let (lo, hi) = rays
                 .iter()
                 .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
-            (hi - lo).max_element() <= spread
+            (hi - lo).max_element()
         };
+        let spread_ok = spread == f32::INFINITY || origins <= spread;
+        // The other shapes' packet only where its origins lie close for their size (NaN: not).
+        let others_together = origins <= self.others_spread;
         let Some(tris) = self.triangles.as_ref().filter(|_| spread_ok) else {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
         };
         if let Some(negative) = tris.canonical_signs(rays) {
-            self.occluded_packet(tris, rays, negative, t_max, occluded);
+            self.occluded_packet(tris, rays, negative, t_max, occluded, others_together);
             return;
         }
         let scaled = if same_signs(rays) { same_scale(rays) } else { None };
@@ -469,7 +492,7 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
                 for (end, &t) in ends.iter_mut().zip(t_max) {
                     *end = Interval::new(0.0, t).on_canonical(*s).max;
                 }
-                self.occluded_packet(tris, canonical, negative, &ends[..rays.len()], occluded);
+                self.occluded_packet(tris, canonical, negative, &ends[..rays.len()], occluded, others_together);
             }
             None => occluded_ray_by_ray(self, rays, t_max, occluded),
         }
