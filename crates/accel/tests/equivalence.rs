@@ -574,7 +574,7 @@ fn batches_match_single_rays_at_extreme_scales() {
 }
 
 /// The shapes other than triangles answer a packet bit for bit as they answer each of its rays:
-/// spheres, boxes and moving spheres among closed meshes, each shape also held twice (a tie its lower
+/// spheres, boxes and moving spheres among closed meshes and on their own, each shape also held twice (a tie its lower
 /// index wins), rays in tiles from a point and from a lens, with and without a minimum distance,
 /// shadow rays to one light from a patch of points.
 #[test]
@@ -587,8 +587,10 @@ fn other_shapes_answer_packets_as_single_rays_bit_for_bit() {
         let twins: Vec<Primitive> = prims.iter().step_by(2).cloned().collect();
         let twin_ids = prims.len() as u32..(prims.len() + twins.len()) as u32;
         prims.extend(twins);
-        let centre = point(&mut rng, 6.0);
-        prims.extend(tessellated_cube(centre, 2.0, 6).into_iter().map(Primitive::Triangle));
+        if n != 12 {
+            let centre = point(&mut rng, 6.0);
+            prims.extend(tessellated_cube(centre, 2.0, 6).into_iter().map(Primitive::Triangle));
+        }
         for kernel in [BvhKernel::Portable, BvhKernel::best()] {
             for build in [BvhBuild::Sah, BvhBuild::Midpoint] {
                 let bvh = checked(Bvh::with_kernel(prims.clone(), Interval::new(0.0, 1.0), build, kernel));

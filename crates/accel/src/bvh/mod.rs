@@ -271,6 +271,20 @@ impl<P> Bvh<P> {
         Ok(())
     }
 
+    /// Whether coherent rays walk the trees as packets: where there are triangles or other bounded
+    /// shapes.
+    fn walks_packets(&self) -> bool {
+        self.triangles.is_some() || self.others.is_some()
+    }
+
+    /// [`stream::canonical_signs`], by the triangles' kernel where there are triangles.
+    fn canonical_signs(&self, rays: &[Ray]) -> Option<[bool; 3]> {
+        match &self.triangles {
+            Some(tris) => tris.canonical_signs(rays),
+            None => stream::canonical_signs(rays),
+        }
+    }
+
     /// The kernel of single-ray and batch queries over the triangles.
     pub fn kernel(&self) -> BvhKernel {
         self.triangles.as_ref().map_or(BvhKernel::Portable, Triangles::kernel)
@@ -388,7 +402,7 @@ impl<P: Intersect> Bvh<P> {
     /// [`Accelerator::closest_hits`] for a packet of rays with the directions' signs `negative`.
     fn closest_packet(
         &self,
-        tris: &Triangles,
+        tris: Option<&Triangles>,
         rays: &[Ray],
         negative: [bool; 3],
         t_range: Interval,
@@ -409,6 +423,7 @@ impl<P: Intersect> Bvh<P> {
             let shapes = (&prims[..], &ids[..], &self.other_boxes[..]);
             stream::closest_by_shapes(&frustum, tree, shapes, rays, negative, t_min, &mut t_max[..n], hits);
         }
+        let Some(tris) = tris else { return };
         if self
             .triangles_node
             .is_none_or(|node| node.meets_packet(&frustum, t_min, reach(stream::largest(&t_max[..n]))))
@@ -422,7 +437,7 @@ impl<P: Intersect> Bvh<P> {
     /// the shapes other than triangles as a packet too if `others_together`, else ray by ray.
     fn occluded_packet(
         &self,
-        tris: &Triangles,
+        tris: Option<&Triangles>,
         rays: &[Ray],
         negative: [bool; 3],
         t_max: &[f32],
@@ -439,7 +454,9 @@ impl<P: Intersect> Bvh<P> {
             }
         }
         let frustum = Frustum::new(rays, negative);
-        if self.triangles_node.is_none_or(|node| node.meets_packet(&frustum, 0.0, stream::largest(&ends))) {
+        if let Some(tris) = tris
+            && self.triangles_node.is_none_or(|node| node.meets_packet(&frustum, 0.0, stream::largest(&ends)))
+        {
             let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
             tris.answer_packet(rays, negative, query);
         }
@@ -469,14 +486,18 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
                 .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
             (hi - lo).max_element()
         };
-        let spread_ok = spread == f32::INFINITY || origins <= spread;
-        // The other shapes' packet only where its origins lie close for their size (NaN: not).
-        let others_together = origins <= self.others_spread;
-        let Some(tris) = self.triangles.as_ref().filter(|_| spread_ok) else {
+        // Each kind of shape as a packet only where the origins lie close for the size of its leaves
+        // (NaN: not).
+        let (tris, others_together) = (self.triangles.as_ref(), origins <= self.others_spread);
+        let together = match tris {
+            Some(_) => spread == f32::INFINITY || origins <= spread,
+            None => others_together && self.others.is_some(),
+        };
+        if !together {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
-        };
-        if let Some(negative) = tris.canonical_signs(rays) {
+        }
+        if let Some(negative) = self.canonical_signs(rays) {
             self.occluded_packet(tris, rays, negative, t_max, occluded, others_together);
             return;
         }
@@ -563,7 +584,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
     }
 
     fn gathers_coherent_rays(&self) -> bool {
-        self.triangles.is_some()
+        self.walks_packets()
     }
 
     fn closest_hits(&self, rays: &[Ray], t_range: Interval, hits: &mut [Option<PrimitiveHit>]) {
@@ -577,13 +598,14 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
                 tris.prefetch(&hits[end..next]);
             }
             let (rays, hits) = (&rays[start..end], &mut hits[start..end]);
-            let Some(tris) = self.triangles.as_ref().filter(|_| !t_range.min.is_nan() && !t_range.max.is_nan()) else {
+            if !self.walks_packets() || t_range.min.is_nan() || t_range.max.is_nan() {
                 closest_ray_by_ray(self, rays, t_range, hits);
                 continue;
-            };
+            }
+            let tris = self.triangles.as_ref();
             // Canonical rays (unit directions mostly are) walk as they are; others walk their
             // canonical forms when those share one scale.
-            if let Some(negative) = tris.canonical_signs(rays) {
+            if let Some(negative) = self.canonical_signs(rays) {
                 self.closest_packet(tris, rays, negative, t_range, hits);
                 continue;
             }
