@@ -102,6 +102,12 @@ fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
     // f32 values are exact.
     let r2 = radius as f64 * radius as f64;
     let c = (sq64(f) - r2) as f32;
+    // From outside, moving away: both roots are negative (as computed too: `q` is then negative and
+    // `c` positive). With `c` finite and the radius in range, the discriminant is finite as well, so
+    // the f64 path would not be taken either.
+    if c > 0.0 && half_b > 0.0 && c < f32::INFINITY {
+        return Root::Miss;
+    }
     let closest = f - ray.dir * (half_b / a);
     let disc = a * (r2 - sq64(closest)) as f32;
     if disc.is_nan() || disc < 0.0 {
