@@ -168,15 +168,16 @@ impl<'a, K: Copy> Rays<'a, K> {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
         let mut sheared = [NO_FRAME; PACKET];
-        // Groups past the rays are never tested.
-        let mut groups =
-            [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
-        let per_group = sheared.chunks_mut(4).zip(ends.chunks_mut(4));
-        for ((group, rays), (frames, ends)) in groups.iter_mut().zip(rays.chunks(4)).zip(per_group) {
-            let dir;
-            (*group, dir) = RayGroup::new(rays);
-            sheared_frames(rays, dir, frames, ends);
-        }
+        // Groups past the rays, never tested, repeat the first ray: each group is written once.
+        let groups = std::array::from_fn(|g| {
+            let Some(rays) = rays.get(4 * g..).filter(|rest| !rest.is_empty()) else {
+                return RayGroup::new(&rays[..1]).0;
+            };
+            let rays = &rays[..rays.len().min(4)];
+            let (group, dir) = RayGroup::new(rays);
+            sheared_frames(rays, dir, &mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
+            group
+        });
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
 
@@ -311,15 +312,14 @@ pub(super) fn closest_by_shapes<P: Intersect>(
     t_max.copy_from_slice(&ends[..n]);
 }
 
-/// The box-test groups of a packet's `rays` (those past the rays are never tested).
+/// The box-test groups of a packet's `rays` (one to [`PACKET`]). Those past the rays, never tested,
+/// repeat the first ray: each group is written once, with no clearing of the array first.
 #[inline(always)]
 fn ray_groups(rays: &[Ray]) -> [RayGroup; GROUPS] {
-    let mut groups =
-        [RayGroup { origin: [Vec4::ZERO; 3], inv_near: [Vec4::ZERO; 3], inv_far: [Vec4::ZERO; 3] }; GROUPS];
-    for (group, rays) in groups.iter_mut().zip(rays.chunks(4)) {
-        *group = RayGroup::new(rays).0;
-    }
-    groups
+    std::array::from_fn(|g| {
+        let group = rays.get(4 * g..).filter(|rest| !rest.is_empty()).unwrap_or(&rays[..1]);
+        RayGroup::new(&group[..group.len().min(4)]).0
+    })
 }
 
 /// The near and far planes, by the rays' signs `negative`, of the box around `boxes` (`[min, max]`
