@@ -52,7 +52,7 @@ where
     V: AccelVisitor,
 {
     match kind {
-        AccelKind::None => visitor.visit(BruteForce::new(primitives)),
+        AccelKind::None => visitor.visit(BruteForce::with_boxes(primitives, shutter)),
         AccelKind::Bvh => visitor.visit(Bvh::with_kernel(primitives, shutter, BvhBuild::Sah, BvhKernel::best())),
         AccelKind::BvhPortable => {
             visitor.visit(Bvh::with_kernel(primitives, shutter, BvhBuild::Sah, BvhKernel::Portable))

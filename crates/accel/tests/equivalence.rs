@@ -632,3 +632,38 @@ fn other_shapes_answer_packets_as_single_rays_bit_for_bit() {
     assert!(hits > 4_000 && occluded_count > 2_500, "the rays must hit things: {hits} hits, {occluded_count} occluded");
     assert_eq!(ties, 0, "a shape held twice is reported under its lower index");
 }
+
+/// The list that tests boxes first answers every ray bit for bit as the list that runs every
+/// primitive's routine: random scenes of every shape, moving spheres over the shutter, planes and
+/// degenerate triangles (always tested), rays in every direction, with their times, ranges and
+/// shadow ends.
+#[test]
+fn boxed_list_answers_as_the_exhaustive_one_bit_for_bit() {
+    let mut rng = Pcg32::new(77, 8);
+    let (mut hits, mut occluded_count) = (0, 0);
+    for n in [1usize, 5, 17, 90] {
+        let mut prims = random_scene(&mut rng, n);
+        prims.push(Primitive::Plane(Plane { point: Vec3A::new(0.0, -11.0, 0.0), normal: Vec3A::Y }));
+        let p = point(&mut rng, 5.0);
+        prims.push(Primitive::Triangle(Triangle::new(p, p + Vec3A::X, p + 2.0 * Vec3A::X)));
+        let shutter = Interval::new(0.0, 1.0);
+        let (exhaustive, boxed) = (BruteForce::new(prims.clone()), BruteForce::with_boxes(prims.clone(), shutter));
+        for _ in 0..3000 {
+            let mut ray =
+                Ray::new(point(&mut rng, 20.0), point(&mut rng, 1.0) * [1.0, 1e-3, 8.0][rng.next_u32() as usize % 3]);
+            ray.time = uniform(&mut rng);
+            let t_range = if rng.next_u32() % 3 == 0 { Interval::new(2.0, 30.0) } else { Interval::POSITIVE };
+            let bits = |h: Option<PrimitiveHit>| {
+                h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array().map(f32::to_bits)))
+            };
+            let expected = exhaustive.closest_hit(&ray, t_range);
+            assert_eq!(bits(boxed.closest_hit(&ray, t_range)), bits(expected), "{ray:?} in {t_range:?}");
+            let t_max = 40.0 * uniform(&mut rng);
+            let occluded = exhaustive.occluded(&ray, t_max);
+            assert_eq!(boxed.occluded(&ray, t_max), occluded, "{ray:?} before {t_max}");
+            hits += expected.is_some() as usize;
+            occluded_count += occluded as usize;
+        }
+    }
+    assert!(hits > 3000 && occluded_count > 2000, "the rays must hit things: {hits} hits, {occluded_count} occluded");
+}

@@ -103,9 +103,15 @@ impl FewShapes {
     /// past its end that a walk reaches, see [`WideTree::walk`], so that a hit at the end's distance
     /// still counts): `test(slot, t_range)` narrows `t_range` to the shape's hit within it.
     #[inline(always)]
-    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
+    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, test: impl FnMut(usize, &mut Interval)) {
+        self.closest_prepared(&BoxRay::new(ray), t_range, test)
+    }
+
+    /// [`FewShapes::closest`] for a ray prepared once for many nodes.
+    #[inline(always)]
+    pub fn closest_prepared(&self, ray: &BoxRay, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
         let mut range = *t_range;
-        let (near, mask) = BoxRay::new(ray).intersect(&self.0, range.min, reach(range.max));
+        let (near, mask) = ray.intersect(&self.0, range.min, reach(range.max));
         for slot in set_bits(mask) {
             let i = slot as usize;
             // A slot in the mask has a near distance that is a number.
@@ -133,7 +139,13 @@ impl FewShapes {
     /// order.
     #[inline(always)]
     pub fn any(&self, ray: &Ray, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
-        let (_, mask) = BoxRay::new(ray).intersect(&self.0, 0.0, t_max);
+        self.any_prepared(&BoxRay::new(ray), t_max, test)
+    }
+
+    /// [`FewShapes::any`] for a ray prepared once for many nodes.
+    #[inline(always)]
+    pub fn any_prepared(&self, ray: &BoxRay, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
+        let (_, mask) = ray.intersect(&self.0, 0.0, t_max);
         set_bits(mask).map(|slot| slot as usize).any(test)
     }
 }
@@ -158,7 +170,7 @@ pub(super) fn leaf_ref(first: usize, count: usize) -> u32 {
 /// subnormal (the ray parallel to a slab) gives no constraint when the origin lies in the slab, faces
 /// included, and a miss otherwise; the far end of each slab is widened by pbrt's `1 + 2 gamma(3)`.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct BoxRay {
+pub(crate) struct BoxRay {
     origin: [Vec4; 3],
     inv_near: [Vec4; 3],
     inv_far: [Vec4; 3],
