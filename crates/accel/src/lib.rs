@@ -305,7 +305,7 @@ fn occluded_ray_by_ray<A: Accelerator + ?Sized>(accel: &A, rays: &[Ray], t_max: 
 /// Which accelerator to build, chosen at run time.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum AccelKind {
-    /// A plain list: every primitive is tested by every ray.
+    /// A plain list: every primitive is considered by every ray, its box first ([`BruteForce::with_boxes`]).
     None,
     /// A bounding volume hierarchy built with binned SAH, with the fastest kernel the CPU runs
     /// ([`BvhKernel::best`]).
