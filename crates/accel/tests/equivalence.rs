@@ -574,7 +574,8 @@ fn batches_match_single_rays_at_extreme_scales() {
 }
 
 /// The shapes other than triangles answer a packet bit for bit as they answer each of its rays:
-/// spheres, boxes and moving spheres among closed meshes and on their own, each shape also held twice (a tie its lower
+/// spheres, boxes and moving spheres among closed meshes and on their own, at sizes of 1e-4 and 1e4
+/// far from the origin as well as 1, each shape also held twice (a tie its lower
 /// index wins), rays in tiles from a point and from a lens, with and without a minimum distance,
 /// shadow rays to one light from a patch of points.
 #[test]
@@ -591,14 +592,24 @@ fn other_shapes_answer_packets_as_single_rays_bit_for_bit() {
             let centre = point(&mut rng, 6.0);
             prims.extend(tessellated_cube(centre, 2.0, 6).into_iter().map(Primitive::Triangle));
         }
+        // Tiny far from the origin, as it is, and huge.
+        let (scale, offset) = match n {
+            3 => (1e-4, Vec3A::new(3e3, -1e3, 2e3)),
+            60 => (1e4, Vec3A::new(-2e4, 5e4, 1e4)),
+            _ => (1.0, Vec3A::ZERO),
+        };
+        let at = |p: Vec3A| offset + p * scale;
+        let prims: Vec<Primitive> = prims.iter().map(|p| moved(p, scale, offset)).collect();
         for kernel in [BvhKernel::Portable, BvhKernel::best()] {
             for build in [BvhBuild::Sah, BvhBuild::Midpoint] {
                 let bvh = checked(Bvh::with_kernel(prims.clone(), Interval::new(0.0, 1.0), build, kernel));
                 for b in 0..40 {
-                    let origin = point(&mut rng, 18.0);
-                    let aim = point(&mut rng, 8.0);
-                    let rays = tile(&mut rng, origin, aim, [0.002, 0.05, 0.4][b % 3], [0.0, 0.3][b % 2], 8);
-                    let t_range = if b % 4 == 1 { Interval::new(3.0, 40.0) } else { Interval::POSITIVE };
+                    let origin = at(point(&mut rng, 18.0));
+                    let aim = at(point(&mut rng, 8.0));
+                    let (spacing, lens) = ([0.002, 0.05, 0.4][b % 3] * scale, [0.0, 0.3][b % 2] * scale);
+                    let rays = tile(&mut rng, origin, aim, spacing, lens, 8);
+                    let t_range =
+                        if b % 4 == 1 { Interval::new(3.0 * scale, 40.0 * scale) } else { Interval::POSITIVE };
                     let mut got = vec![None; rays.len()];
                     bvh.closest_hits(&rays, t_range, &mut got);
                     for (ray, got) in rays.iter().zip(&got) {
@@ -611,11 +622,11 @@ fn other_shapes_answer_packets_as_single_rays_bit_for_bit() {
                         ties += got.is_some_and(|h| twin_ids.contains(&h.primitive)) as usize;
                     }
                     // Shadow rays from a patch of points towards one light, each with its own end.
-                    let light = point(&mut rng, 20.0);
+                    let light = at(point(&mut rng, 20.0));
                     let from = point(&mut rng, 8.0);
                     let (mut shadow, mut ends) = (Vec::new(), Vec::new());
                     for i in 0..64 {
-                        let p = from + point(&mut rng, [0.01, 0.3, 2.0][b % 3]);
+                        let p = at(from + point(&mut rng, [0.01, 0.3, 2.0][b % 3]));
                         shadow.push(Ray::new(p, (light - p).normalize()));
                         ends.push((light - p).length() * [1.0, 0.5, 2.0][i % 3]);
                     }
@@ -631,6 +642,23 @@ fn other_shapes_answer_packets_as_single_rays_bit_for_bit() {
     }
     assert!(hits > 4_000 && occluded_count > 2_500, "the rays must hit things: {hits} hits, {occluded_count} occluded");
     assert_eq!(ties, 0, "a shape held twice is reported under its lower index");
+}
+
+/// `p` scaled by `scale` about the origin, then moved by `offset`.
+fn moved(p: &Primitive, scale: f32, offset: Vec3A) -> Primitive {
+    let at = |v: Vec3A| offset + v * scale;
+    match *p {
+        Primitive::Sphere(s) => Primitive::Sphere(Sphere { center: at(s.center), radius: s.radius * scale }),
+        Primitive::MovingSphere(m) => Primitive::MovingSphere(MovingSphere {
+            center0: at(m.center0),
+            center1: at(m.center1),
+            radius: m.radius * scale,
+            ..m
+        }),
+        Primitive::Box(b) => Primitive::Box(AaBox { bounds: Aabb::new(at(b.bounds.min), at(b.bounds.max)) }),
+        Primitive::Triangle(t) => Primitive::Triangle(Triangle::new(at(t.p[0]), at(t.p[1]), at(t.p[2]))),
+        ref other => other.clone(),
+    }
 }
 
 /// The list that tests boxes first answers every ray bit for bit as the list that runs every
