@@ -657,7 +657,7 @@ fn moved(p: &Primitive, scale: f32, offset: Vec3A) -> Primitive {
         }),
         Primitive::Box(b) => Primitive::Box(AaBox { bounds: Aabb::new(at(b.bounds.min), at(b.bounds.max)) }),
         Primitive::Triangle(t) => Primitive::Triangle(Triangle::new(at(t.p[0]), at(t.p[1]), at(t.p[2]))),
-        ref other => other.clone(),
+        other => other,
     }
 }
 
