@@ -236,7 +236,7 @@ pub trait Accelerator: Sync + Send {
 
     /// Whether [`closest_hits`](Accelerator::closest_hits) answers runs of coherent rays (a camera's
     /// neighbouring pixels) with less work than one query each, so that a renderer gains by
-    /// gathering them: false by default; a BVH over triangles walks them as packets.
+    /// gathering them: false by default; a BVH over bounded shapes walks them as packets.
     fn gathers_coherent_rays(&self) -> bool {
         false
     }

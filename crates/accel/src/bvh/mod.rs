@@ -302,9 +302,7 @@ impl<P: Intersect> Bvh<P> {
         tally: &mut T,
         best: &mut Option<PrimitiveHit>,
     ) {
-        for _ in &self.unbounded {
-            tally.tested();
-        }
+        (0..self.unbounded.len()).for_each(|_| tally.tested());
         self.closest_unbounded(ray, t_range, best);
         if let Some(b) = best {
             t_range = t_range.with_max(b.hit.t);
@@ -656,6 +654,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         }
         if let Some((tree, prims, ids)) = &self.others {
             bytes += tree.bytes() + std::mem::size_of_val(prims.as_slice()) + std::mem::size_of_val(ids.as_slice());
+            bytes += std::mem::size_of_val(self.other_boxes.as_slice());
             primitives += prims.len();
         }
         AccelStats { nodes: self.node_count(), bytes, primitives }

@@ -1,7 +1,8 @@
-//! Packets of coherent rays (the primary rays of a tile, say) walked down the triangle tree together:
-//! one box test per node for the whole packet ([`Frustum`](super::wide::Frustum)), then at each leaf the leaf's box tested
-//! for four rays at a time and the leaf's triangles tested for each ray that meets the box, exactly as
-//! that ray alone would test them. Every ray gets the answer of the single-ray query.
+//! Packets of coherent rays (the primary rays of a tile, say) walked down the triangle tree, and the
+//! tree of the other shapes, together: one box test per node for the whole packet
+//! ([`Frustum`](super::wide::Frustum)), then at each leaf the leaf's box tested for four rays at a time
+//! and the leaf's triangles or shapes tested for each ray that meets the box, exactly as that ray alone
+//! would test them. Every ray gets the answer of the single-ray query.
 
 use glam::{BVec3A, Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
@@ -217,9 +218,9 @@ impl<'a, K: Copy> Rays<'a, K> {
 /// Whether each ray of a packet hits one of `prims` (the shapes other than triangles, their tree
 /// `tree`, `boxes[i]` the box of `prims[i]` as the tree was built on it) within `(0, t_max[i])`: sets
 /// `occluded[i]` for those that do, and leaves the rays already occluded (and those whose end is NaN)
-/// as they are. The packet walks the tree once ([`Frustum`]); at each leaf, the rays that meet its
-/// box, four at a time, test its shapes as the single-ray query does; `frustum` is the packet's. The answer is each ray's own: a
-/// shape's hit lies inside its box, which every walk tests conservatively.
+/// as they are. The packet walks the tree once with its `frustum`; at each leaf, the rays that meet
+/// its box, four at a time, test its shapes as the single-ray query does. The answer is each ray's
+/// own: a shape's hit lies inside its box, which every walk tests conservatively.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn occluded_by_shapes<P: Intersect>(
     frustum: &Frustum,
