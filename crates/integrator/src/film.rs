@@ -378,6 +378,9 @@ impl Film {
             ImageFormat::Exr | ImageFormat::Png => {
                 let format =
                     if format == ImageFormat::Png { image::ImageFormat::Png } else { image::ImageFormat::OpenExr };
+                if format == image::ImageFormat::OpenExr {
+                    exr_tiles_within(bytes)?;
+                }
                 let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
                 let mut limits = image::Limits::default();
                 limits.max_alloc = Some(MAX_IMAGE_PIXELS * 16);
@@ -434,6 +437,54 @@ impl Film {
                 }
                 out.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)
             }
+        }
+    }
+}
+
+/// Checks the tile sizes an OpenEXR file's headers declare, before its decoder reads a block: it
+/// sets aside room for a whole tile's bytes as the header gives them, so a small corrupt file could ask
+/// for gigabytes. A tile may hold no more pixels than an image of that file may (400 per byte of the
+/// file, see [`Film::decode`]). Headers this scan cannot follow are left to the decoder's own errors.
+fn exr_tiles_within(bytes: &[u8]) -> Result<(), String> {
+    let holds = bytes.len() as u64 * 400 + (1 << 16);
+    let Some(version) = bytes.get(4..8) else { return Ok(()) };
+    let multipart = version[1] & 0x10 != 0;
+    let mut at = 8;
+    // A null-terminated string of at most 255 bytes at `at`.
+    let string = |at: usize| {
+        let rest = bytes.get(at..)?;
+        let len = rest.iter().take(256).position(|&b| b == 0)?;
+        Some((&rest[..len], at + len + 1))
+    };
+    loop {
+        // One header: attributes (name, type, size, value) up to an empty name.
+        loop {
+            let Some((name, next)) = string(at) else { return Ok(()) };
+            if name.is_empty() {
+                at = next;
+                break;
+            }
+            let Some((kind, next)) = string(next) else { return Ok(()) };
+            let Some(size) = bytes.get(next..next + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])) else {
+                return Ok(());
+            };
+            let Some(value) = bytes.get(next + 4..).and_then(|v| v.get(..size as usize)) else { return Ok(()) };
+            if name == b"tiles" && kind == b"tiledesc" && value.len() >= 8 {
+                let x = u32::from_le_bytes([value[0], value[1], value[2], value[3]]);
+                let y = u32::from_le_bytes([value[4], value[5], value[6], value[7]]);
+                if x as u64 * y as u64 > holds.min(MAX_IMAGE_PIXELS) {
+                    return Err(format!(
+                        "OpenEXR tiles of {x}x{y} pixels: expected at most {} pixels for a file of {} bytes",
+                        holds.min(MAX_IMAGE_PIXELS),
+                        bytes.len()
+                    ));
+                }
+            }
+            at = next + 4 + size as usize;
+        }
+        // Multi-part files list their headers up to an empty one.
+        if !multipart || bytes.get(at).is_none_or(|&b| b == 0) {
+            return Ok(());
         }
     }
 }
@@ -505,6 +556,30 @@ mod tests {
         let ours = film.to_rgb8();
         let wrong = (0..expected.len()).find(|&i| ours[i] != expected[i]);
         assert!(wrong.is_none(), "{:?}", wrong.map(|i| (values[i / 3], ours[i], expected[i])));
+    }
+
+    /// OpenEXR tiles larger than a file of that size may hold are refused before a block is read;
+    /// tiled files with ordinary tiles decode.
+    #[test]
+    fn exr_tiles_are_checked_before_their_blocks_are_read() {
+        use exr::prelude::*;
+        let mut tiled = Vec::new();
+        let rgb = SpecificChannels::rgb(|p: Vec2<usize>| (p.0 as f32, p.1 as f32, 0.5f32));
+        let encoding = Encoding { blocks: Blocks::Tiles(Vec2(16, 16)), ..Encoding::UNCOMPRESSED };
+        let layer = Layer::new((40, 24), LayerAttributes::default(), encoding, rgb);
+        Image::from_layer(layer).write().to_buffered(std::io::Cursor::new(&mut tiled)).unwrap();
+        let film = Film::decode(&tiled, ImageFormat::Exr).unwrap();
+        assert_eq!((film.width, film.height, film.pixel(39, 23)), (40, 24, Vec3::new(39.0, 23.0, 0.5)));
+        // The same file declaring tiles of 16384 x 2^30 pixels.
+        let at = tiled.windows(15).position(|w| w == b"tiles\0tiledesc\0").unwrap() + 19;
+        let mut huge = tiled.clone();
+        huge[at..at + 8].copy_from_slice(&[0, 0x40, 0, 0, 0, 0, 0, 0x40]);
+        let e = Film::decode(&huge, ImageFormat::Exr).unwrap_err();
+        assert!(e.starts_with("OpenEXR tiles of 16384x1073741824 pixels: expected at most"), "{e}");
+        // What the fuzzer found: a file of 814 bytes asking for a block of 1.9 GB.
+        let found = include_bytes!("../../scene/tests/fuzz-regressions/image-exr-huge-tiles.exr");
+        let e = Film::decode(found, ImageFormat::Exr).unwrap_err();
+        assert!(e.starts_with("OpenEXR tiles of"), "{e}");
     }
 
     #[test]
