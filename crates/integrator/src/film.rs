@@ -441,52 +441,39 @@ impl Film {
     }
 }
 
-/// Checks the tile sizes an OpenEXR file's headers declare, before its decoder reads a block: it
-/// sets aside room for a whole tile's bytes as the header gives them, so a small corrupt file could ask
-/// for gigabytes. A tile may hold no more pixels than an image of that file may (400 per byte of the
-/// file, see [`Film::decode`]). Headers this scan cannot follow are left to the decoder's own errors.
+/// Checks the tiles an OpenEXR file declares, before its decoder reads a block: the decoder sets aside
+/// room for a whole tile's bytes as the header gives them, so a small corrupt file could ask for
+/// gigabytes. A tile's bytes may be no more than those of an image a file of that size may hold (400
+/// pixels per byte of the file, see [`Film::decode`], of 16 bytes each). Every `tiledesc` and `chlist`
+/// attribute in the file counts, wherever it is, so the check does not depend on how a damaged header
+/// is read; a pixel's bytes are bounded by 4 per channel, and a channel entry takes at least 18 bytes.
 fn exr_tiles_within(bytes: &[u8]) -> Result<(), String> {
-    let holds = bytes.len() as u64 * 400 + (1 << 16);
-    let Some(version) = bytes.get(4..8) else { return Ok(()) };
-    let multipart = version[1] & 0x10 != 0;
-    let mut at = 8;
-    // A null-terminated string of at most 255 bytes at `at`.
-    let string = |at: usize| {
-        let rest = bytes.get(at..)?;
-        let len = rest.iter().take(256).position(|&b| b == 0)?;
-        Some((&rest[..len], at + len + 1))
+    let most = (bytes.len() as u64 * 400 + (1 << 16)).min(MAX_IMAGE_PIXELS) * 16;
+    // The declared size and the value of each attribute of type `kind`.
+    let values = |kind: &'static [u8]| {
+        let pattern = [kind, b"\0"].concat();
+        (0..bytes.len()).filter(move |&at| bytes[at..].starts_with(&pattern)).filter_map(move |at| {
+            let size = bytes.get(at + kind.len() + 1..)?.get(..4)?;
+            let size = u32::from_le_bytes([size[0], size[1], size[2], size[3]]) as usize;
+            let value = bytes.get(at + kind.len() + 5..)?;
+            Some((size, &value[..size.min(value.len())]))
+        })
     };
-    loop {
-        // One header: attributes (name, type, size, value) up to an empty name.
-        loop {
-            let Some((name, next)) = string(at) else { return Ok(()) };
-            if name.is_empty() {
-                at = next;
-                break;
-            }
-            let Some((kind, next)) = string(next) else { return Ok(()) };
-            let Some(size) = bytes.get(next..next + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])) else {
-                return Ok(());
-            };
-            let Some(value) = bytes.get(next + 4..).and_then(|v| v.get(..size as usize)) else { return Ok(()) };
-            if name == b"tiles" && kind == b"tiledesc" && value.len() >= 8 {
-                let x = u32::from_le_bytes([value[0], value[1], value[2], value[3]]);
-                let y = u32::from_le_bytes([value[4], value[5], value[6], value[7]]);
-                if x as u64 * y as u64 > holds.min(MAX_IMAGE_PIXELS) {
-                    return Err(format!(
-                        "OpenEXR tiles of {x}x{y} pixels: expected at most {} pixels for a file of {} bytes",
-                        holds.min(MAX_IMAGE_PIXELS),
-                        bytes.len()
-                    ));
-                }
-            }
-            at = next + 4 + size as usize;
-        }
-        // Multi-part files list their headers up to an empty one.
-        if !multipart || bytes.get(at).is_none_or(|&b| b == 0) {
-            return Ok(());
+    let channels = values(b"chlist").map(|(size, _)| size.min(bytes.len()) / 18 + 1).max().unwrap_or(1);
+    let pixel_bytes = 4 * channels as u64;
+    for (_, value) in values(b"tiledesc") {
+        let Some(v) = value.get(..8) else { continue };
+        let x = u32::from_le_bytes([v[0], v[1], v[2], v[3]]) as u64;
+        let y = u32::from_le_bytes([v[4], v[5], v[6], v[7]]) as u64;
+        if (x * y).saturating_mul(pixel_bytes) > most {
+            return Err(format!(
+                "OpenEXR tiles of {x}x{y} pixels of up to {pixel_bytes} bytes: expected at most {most} bytes a tile \
+                 for a file of {} bytes",
+                bytes.len()
+            ));
         }
     }
+    Ok(())
 }
 
 /// A colour PFM (`PF`, width, height, scale whose sign gives the byte order, rows bottom first).
@@ -575,11 +562,16 @@ mod tests {
         let mut huge = tiled.clone();
         huge[at..at + 8].copy_from_slice(&[0, 0x40, 0, 0, 0, 0, 0, 0x40]);
         let e = Film::decode(&huge, ImageFormat::Exr).unwrap_err();
-        assert!(e.starts_with("OpenEXR tiles of 16384x1073741824 pixels: expected at most"), "{e}");
-        // What the fuzzer found: a file of 814 bytes asking for a block of 1.9 GB.
-        let found = include_bytes!("../../scene/tests/fuzz-regressions/image-exr-huge-tiles.exr");
-        let e = Film::decode(found, ImageFormat::Exr).unwrap_err();
-        assert!(e.starts_with("OpenEXR tiles of"), "{e}");
+        assert!(e.starts_with("OpenEXR tiles of 16384x1073741824 pixels of up to 16 bytes: expected at most"), "{e}");
+        // What the fuzzer found: files of 814 and 446 bytes asking for blocks of 1.9 and 1.7 GB.
+        for found in [
+            &include_bytes!("../../scene/tests/fuzz-regressions/image-exr-huge-tiles.exr")[..],
+            // Tiles after an attribute with no type: the decoder reads the header on past it.
+            include_bytes!("../../scene/tests/fuzz-regressions/image-exr-tiles-in-a-damaged-header.exr"),
+        ] {
+            let e = Film::decode(found, ImageFormat::Exr).unwrap_err();
+            assert!(e.starts_with("OpenEXR tiles of"), "{e}");
+        }
     }
 
     #[test]
