@@ -378,9 +378,6 @@ impl Film {
             ImageFormat::Exr | ImageFormat::Png => {
                 let format =
                     if format == ImageFormat::Png { image::ImageFormat::Png } else { image::ImageFormat::OpenExr };
-                if format == image::ImageFormat::OpenExr {
-                    exr_tiles_within(bytes)?;
-                }
                 let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
                 let mut limits = image::Limits::default();
                 limits.max_alloc = Some(MAX_IMAGE_PIXELS * 16);
@@ -400,6 +397,9 @@ impl Film {
                         "{w}x{h} pixels: expected 1 to {MAX_IMAGE_PIXELS}, and at most {holds} for a file of {} bytes",
                         bytes.len()
                     ));
+                }
+                if format == image::ImageFormat::OpenExr {
+                    exr_blocks_within(bytes, w)?;
                 }
                 let img = image::DynamicImage::from_decoder(decoder).map_err(|e| e.to_string())?;
                 let img = img.into_rgb32f();
@@ -441,13 +441,14 @@ impl Film {
     }
 }
 
-/// Checks the tiles an OpenEXR file declares, before its decoder reads a block: the decoder sets aside
-/// room for a whole tile's bytes as the header gives them, so a small corrupt file could ask for
-/// gigabytes. A tile's bytes may be no more than those of an image a file of that size may hold (400
-/// pixels per byte of the file, see [`Film::decode`], of 16 bytes each). Every `tiledesc` and `chlist`
-/// attribute in the file counts, wherever it is, so the check does not depend on how a damaged header
-/// is read; a pixel's bytes are bounded by 4 per channel, and a channel entry takes at least 18 bytes.
-fn exr_tiles_within(bytes: &[u8]) -> Result<(), String> {
+/// Checks the blocks of an OpenEXR file `width` pixels wide before its decoder reads one: the decoder
+/// sets aside room for a whole block's bytes as the headers give them (a tile, or the scan lines one
+/// compression takes at a time), so a small corrupt file could ask for gigabytes. A block's bytes may
+/// be no more than those of an image a file of that size may hold (400 pixels per byte of the file,
+/// see [`Film::decode`], of 16 bytes each). Every `tiledesc`, `chlist` and `compression` attribute in
+/// the file counts, wherever it is, so the check does not depend on how a damaged header is read; a
+/// pixel's bytes are bounded by 4 per channel, and a channel entry takes at least 18 bytes.
+fn exr_blocks_within(bytes: &[u8], width: u32) -> Result<(), String> {
     let most = (bytes.len() as u64 * 400 + (1 << 16)).min(MAX_IMAGE_PIXELS) * 16;
     // The declared size and the value of each attribute of type `kind`.
     let values = |kind: &'static [u8]| {
@@ -461,19 +462,35 @@ fn exr_tiles_within(bytes: &[u8]) -> Result<(), String> {
     };
     let channels = values(b"chlist").map(|(size, _)| size.min(bytes.len()) / 18 + 1).max().unwrap_or(1);
     let pixel_bytes = 4 * channels as u64;
+    let too_many = |what: String, pixels: u64| {
+        (pixels.saturating_mul(pixel_bytes) > most).then(|| {
+            format!(
+                "OpenEXR {what} of up to {pixel_bytes} bytes a pixel: expected at most {most} bytes a block for a \
+                 file of {} bytes",
+                bytes.len()
+            )
+        })
+    };
     for (_, value) in values(b"tiledesc") {
         let Some(v) = value.get(..8) else { continue };
         let x = u32::from_le_bytes([v[0], v[1], v[2], v[3]]) as u64;
         let y = u32::from_le_bytes([v[4], v[5], v[6], v[7]]) as u64;
-        if (x * y).saturating_mul(pixel_bytes) > most {
-            return Err(format!(
-                "OpenEXR tiles of {x}x{y} pixels of up to {pixel_bytes} bytes: expected at most {most} bytes a tile \
-                 for a file of {} bytes",
-                bytes.len()
-            ));
+        if let Some(e) = too_many(format!("tiles of {x}x{y} pixels"), x * y) {
+            return Err(e);
         }
     }
-    Ok(())
+    // Scan lines a block, by compression: none, RLE and ZIPS 1, ZIP and PXR24 16, DWAB 256, the others 32.
+    let lines = values(b"compression")
+        .filter(|(size, _)| *size == 1)
+        .map(|(_, v)| match v[0] {
+            0..=2 => 1,
+            3 | 5 => 16,
+            9 => 256,
+            _ => 32,
+        })
+        .max()
+        .unwrap_or(32);
+    too_many(format!("blocks of {lines} scan lines of {width} pixels"), lines * width as u64).map_or(Ok(()), Err)
 }
 
 /// A colour PFM (`PF`, width, height, scale whose sign gives the byte order, rows bottom first).
@@ -545,31 +562,43 @@ mod tests {
         assert!(wrong.is_none(), "{:?}", wrong.map(|i| (values[i / 3], ours[i], expected[i])));
     }
 
-    /// OpenEXR tiles larger than a file of that size may hold are refused before a block is read;
-    /// tiled files with ordinary tiles decode.
+    /// OpenEXR blocks (tiles, or a compression's scan lines) larger than a file of that size may hold
+    /// are refused before a block is read; ordinary tiled and scan-line files decode.
     #[test]
-    fn exr_tiles_are_checked_before_their_blocks_are_read() {
+    fn exr_blocks_are_checked_before_they_are_read() {
         use exr::prelude::*;
-        let mut tiled = Vec::new();
-        let rgb = SpecificChannels::rgb(|p: Vec2<usize>| (p.0 as f32, p.1 as f32, 0.5f32));
-        let encoding = Encoding { blocks: Blocks::Tiles(Vec2(16, 16)), ..Encoding::UNCOMPRESSED };
-        let layer = Layer::new((40, 24), LayerAttributes::default(), encoding, rgb);
-        Image::from_layer(layer).write().to_buffered(std::io::Cursor::new(&mut tiled)).unwrap();
-        let film = Film::decode(&tiled, ImageFormat::Exr).unwrap();
-        assert_eq!((film.width, film.height, film.pixel(39, 23)), (40, 24, Vec3::new(39.0, 23.0, 0.5)));
-        // The same file declaring tiles of 16384 x 2^30 pixels.
-        let at = tiled.windows(15).position(|w| w == b"tiles\0tiledesc\0").unwrap() + 19;
-        let mut huge = tiled.clone();
-        huge[at..at + 8].copy_from_slice(&[0, 0x40, 0, 0, 0, 0, 0, 0x40]);
-        let e = Film::decode(&huge, ImageFormat::Exr).unwrap_err();
-        assert!(e.starts_with("OpenEXR tiles of 16384x1073741824 pixels of up to 16 bytes: expected at most"), "{e}");
+        // A gradient, or a flat colour where `flat`.
+        let write =
+            |size: (usize, usize), encoding: Encoding, flat: bool| {
+                let mut file = Vec::new();
+                let rgb = SpecificChannels::rgb(move |p: Vec2<usize>| {
+                    if flat { (0.5f32, 0.5f32, 0.5f32) } else { (p.0 as f32, p.1 as f32, 0.5f32) }
+                });
+                let layer = Layer::new(size, LayerAttributes::default(), encoding, rgb);
+                Image::from_layer(layer).write().to_buffered(std::io::Cursor::new(&mut file)).unwrap();
+                file
+            };
+        let tiled = write((40, 24), Encoding { blocks: Blocks::Tiles(Vec2(16, 16)), ..Encoding::UNCOMPRESSED }, false);
+        let lines = write((40, 24), Encoding { compression: Compression::ZIP16, ..Encoding::UNCOMPRESSED }, false);
+        for file in [&tiled, &lines] {
+            let film = Film::decode(file, ImageFormat::Exr).unwrap();
+            assert_eq!((film.width, film.height, film.pixel(39, 23)), (40, 24, Vec3::new(39.0, 23.0, 0.5)));
+        }
+        // A flat line 16384 pixels wide, a file of a few hundred bytes, decodes; said to be compressed by
+        // DWAB (blocks of 256 scan lines), it is refused.
+        let mut wide = write((16384, 1), Encoding { compression: Compression::ZIP16, ..Encoding::UNCOMPRESSED }, true);
+        assert_eq!(Film::decode(&wide, ImageFormat::Exr).map(|f| f.width), Ok(16384));
+        let at = wide.windows(24).position(|w| w == b"compression\0compression\0").unwrap() + 28;
+        wide[at] = 9;
+        let e = Film::decode(&wide, ImageFormat::Exr).map(|f| f.width).unwrap_err();
+        assert!(e.starts_with("OpenEXR blocks of 256 scan lines of 16384 pixels of up to 16 bytes a pixel"), "{e}");
         // What the fuzzer found: files of 814 and 446 bytes asking for blocks of 1.9 and 1.7 GB.
         for found in [
             &include_bytes!("../../scene/tests/fuzz-regressions/image-exr-huge-tiles.exr")[..],
             // Tiles after an attribute with no type: the decoder reads the header on past it.
             include_bytes!("../../scene/tests/fuzz-regressions/image-exr-tiles-in-a-damaged-header.exr"),
         ] {
-            let e = Film::decode(found, ImageFormat::Exr).unwrap_err();
+            let e = Film::decode(found, ImageFormat::Exr).map(|f| f.width).unwrap_err();
             assert!(e.starts_with("OpenEXR tiles of"), "{e}");
         }
     }
