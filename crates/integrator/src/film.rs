@@ -481,8 +481,8 @@ fn exr_blocks_within(bytes: &[u8], width: u32) -> Result<(), String> {
     }
     // Scan lines a block, by compression: none, RLE and ZIPS 1, ZIP and PXR24 16, DWAB 256, the others 32.
     let lines = values(b"compression")
-        .filter(|(size, _)| *size == 1)
-        .map(|(_, v)| match v[0] {
+        .filter_map(|(size, v)| v.first().filter(|_| size == 1))
+        .map(|kind| match kind {
             0..=2 => 1,
             3 | 5 => 16,
             9 => 256,
