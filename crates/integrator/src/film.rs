@@ -445,9 +445,9 @@ impl Film {
 /// sets aside room for a whole block's bytes as the headers give them (a tile, or the scan lines one
 /// compression takes at a time), so a small corrupt file could ask for gigabytes. A block's bytes may
 /// be no more than those of an image a file of that size may hold (400 pixels per byte of the file,
-/// see [`Film::decode`], of 16 bytes each). Every `tiledesc`, `chlist` and `compression` attribute in
-/// the file counts, wherever it is, so the check does not depend on how a damaged header is read; a
-/// pixel's bytes are bounded by 4 per channel, and a channel entry takes at least 18 bytes.
+/// see [`Film::decode`], of 16 bytes each). Every `tiledesc`, `chlist`, `compression` and `box2i`
+/// attribute in the file counts, wherever it is, so the check does not depend on how a damaged header is
+/// read; a pixel's bytes are bounded by 4 per channel, and a channel entry takes at least 18 bytes.
 fn exr_blocks_within(bytes: &[u8], width: u32) -> Result<(), String> {
     let most = (bytes.len() as u64 * 400 + (1 << 16)).min(MAX_IMAGE_PIXELS) * 16;
     // The declared size and the value of each attribute of type `kind`.
@@ -490,7 +490,16 @@ fn exr_blocks_within(bytes: &[u8], width: u32) -> Result<(), String> {
         })
         .max()
         .unwrap_or(32);
-    too_many(format!("blocks of {lines} scan lines of {width} pixels"), lines * width as u64).map_or(Ok(()), Err)
+    // The widest window the file declares (`box2i`: x min, y min, x max, y max), the decoder's width at least.
+    let width = values(b"box2i")
+        .filter_map(|(_, v)| {
+            let v = v.get(..12)?;
+            let (lo, hi) =
+                (i32::from_le_bytes([v[0], v[1], v[2], v[3]]), i32::from_le_bytes([v[8], v[9], v[10], v[11]]));
+            Some((hi as i64 - lo as i64 + 1).max(0) as u64)
+        })
+        .fold(width as u64, u64::max);
+    too_many(format!("blocks of {lines} scan lines of {width} pixels"), lines * width).map_or(Ok(()), Err)
 }
 
 /// A colour PFM (`PF`, width, height, scale whose sign gives the byte order, rows bottom first).
@@ -592,14 +601,16 @@ mod tests {
         wide[at] = 9;
         let e = Film::decode(&wide, ImageFormat::Exr).map(|f| f.width).unwrap_err();
         assert!(e.starts_with("OpenEXR blocks of 256 scan lines of 16384 pixels of up to 16 bytes a pixel"), "{e}");
-        // What the fuzzer found: files of 814 and 446 bytes asking for blocks of 1.9 and 1.7 GB.
+        // What the fuzzer found: files of 814, 446 and 519 bytes asking for 1.9, 1.7 and 7.1 GB.
         for found in [
             &include_bytes!("../../scene/tests/fuzz-regressions/image-exr-huge-tiles.exr")[..],
             // Tiles after an attribute with no type: the decoder reads the header on past it.
             include_bytes!("../../scene/tests/fuzz-regressions/image-exr-tiles-in-a-damaged-header.exr"),
+            // A data window 15 597 588 pixels wide, whose DWAB blocks would take 7.1 GB.
+            include_bytes!("../../scene/tests/fuzz-regressions/image-exr-wide-data-window.exr"),
         ] {
             let e = Film::decode(found, ImageFormat::Exr).map(|f| f.width).unwrap_err();
-            assert!(e.starts_with("OpenEXR tiles of"), "{e}");
+            assert!(e.starts_with("OpenEXR ") && e.contains("bytes a block"), "{e}");
         }
     }
 
