@@ -1,7 +1,7 @@
 use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::Intersect;
 
-use crate::bvh::{BoxRay, FewShapes, reach, set_bits};
+use crate::bvh::{BoxRay, FewShapes};
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally};
 
 /// Tests every primitive: the reference for correctness, and the fastest choice for a handful of them.
@@ -73,14 +73,9 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
                 Some(boxes) => {
                     let box_ray = BoxRay::new(ray);
                     for (k, node) in boxes.iter().enumerate() {
-                        // Up to the few ulps past the closest hit that a walk reaches: a tie at its
-                        // distance still counts.
-                        let (near, mask) = node.hits(&box_ray, t_range.min, reach(t_range.max));
-                        for slot in set_bits(mask) {
-                            if near[slot as usize] <= reach(t_range.max) {
-                                test(FewShapes::MAX * k + slot as usize, &mut t_range);
-                            }
-                        }
+                        node.closest_prepared(&box_ray, &mut t_range, |slot, t_range| {
+                            test(FewShapes::MAX * k + slot, t_range)
+                        });
                     }
                 }
             }
@@ -98,9 +93,10 @@ impl<P: Intersect + Sync + Send> Accelerator for BruteForce<P> {
                 None => (0..self.prims.len()).any(test),
                 Some(boxes) => {
                     let box_ray = BoxRay::new(ray);
-                    boxes.iter().enumerate().any(|(k, node)| {
-                        set_bits(node.hits(&box_ray, 0.0, t_max).1).any(|slot| test(FewShapes::MAX * k + slot as usize))
-                    })
+                    boxes
+                        .iter()
+                        .enumerate()
+                        .any(|(k, node)| node.any_prepared(&box_ray, t_max, |slot| test(FewShapes::MAX * k + slot)))
                 }
             }
         })

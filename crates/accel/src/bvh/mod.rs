@@ -36,8 +36,8 @@ use raylume_geometry::{Aabb, Interval, Ray, Vec3A};
 use raylume_intersect::{Intersect, has_unit_normal};
 use stream::PacketQuery;
 use triangles::Leaf;
-pub(crate) use wide::{BoxRay, FewShapes, reach, set_bits};
-use wide::{Frustum, MAX_FIRST, WideTree, leaf_range, leaf_ref};
+pub(crate) use wide::{BoxRay, FewShapes};
+use wide::{Frustum, MAX_FIRST, WideTree, leaf_range, leaf_ref, reach};
 
 use crate::{AccelStats, Accelerator, PrimitiveHit, Tally, closest_ray_by_ray, occluded_ray_by_ray};
 

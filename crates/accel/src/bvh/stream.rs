@@ -196,9 +196,7 @@ impl<'a, K: Copy> Rays<'a, K> {
         t_min: f32,
         test: &mut impl RayTest<Kept = K>,
     ) -> f32 {
-        let plane = |a: usize, far: bool| Vec4::splat(bounds[3 * (negative[a] != far) as usize + a]);
-        let near_plane = [plane(0, false), plane(1, false), plane(2, false)];
-        let far_plane = [plane(0, true), plane(1, true), plane(2, true)];
+        let (near_plane, far_plane) = leaf_planes(std::slice::from_ref(bounds), negative);
         let t_min_lanes = Vec4::splat(t_min);
         let mut largest = Vec4::NEG_INFINITY;
         for g in 0..self.rays.len().div_ceil(4) {

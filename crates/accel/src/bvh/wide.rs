@@ -103,9 +103,15 @@ impl FewShapes {
     /// past its end that a walk reaches, see [`WideTree::walk`], so that a hit at the end's distance
     /// still counts): `test(slot, t_range)` narrows `t_range` to the shape's hit within it.
     #[inline(always)]
-    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
+    pub fn closest(&self, ray: &Ray, t_range: &mut Interval, test: impl FnMut(usize, &mut Interval)) {
+        self.closest_prepared(&BoxRay::new(ray), t_range, test)
+    }
+
+    /// [`FewShapes::closest`] for a ray prepared once for many nodes.
+    #[inline(always)]
+    pub fn closest_prepared(&self, ray: &BoxRay, t_range: &mut Interval, mut test: impl FnMut(usize, &mut Interval)) {
         let mut range = *t_range;
-        let (near, mask) = BoxRay::new(ray).intersect(&self.0, range.min, reach(range.max));
+        let (near, mask) = ray.intersect(&self.0, range.min, reach(range.max));
         for slot in set_bits(mask) {
             let i = slot as usize;
             // A slot in the mask has a near distance that is a number.
@@ -129,18 +135,17 @@ impl FewShapes {
         frustum.intersect(&self.0, t_min, t_max).1 != 0
     }
 
-    /// The slots whose box `ray` (prepared once for many nodes) meets within `[t_min, t_max]`, and each
-    /// box's entry distance.
-    #[inline(always)]
-    pub fn hits(&self, ray: &BoxRay, t_min: f32, t_max: f32) -> ([f32; 4], u32) {
-        ray.intersect(&self.0, t_min, t_max)
-    }
-
     /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]`, tried in slot
     /// order.
     #[inline(always)]
     pub fn any(&self, ray: &Ray, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
-        let (_, mask) = BoxRay::new(ray).intersect(&self.0, 0.0, t_max);
+        self.any_prepared(&BoxRay::new(ray), t_max, test)
+    }
+
+    /// [`FewShapes::any`] for a ray prepared once for many nodes.
+    #[inline(always)]
+    pub fn any_prepared(&self, ray: &BoxRay, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
+        let (_, mask) = ray.intersect(&self.0, 0.0, t_max);
         set_bits(mask).map(|slot| slot as usize).any(test)
     }
 }
@@ -425,7 +430,7 @@ pub(super) struct Stack<'a> {
 /// The bits set in `mask`, lowest first: the children of a node's hit mask, or the lanes of a leaf's
 /// candidate or hit mask in the order the scalar loops take them.
 #[inline(always)]
-pub(crate) fn set_bits(mut mask: u32) -> impl Iterator<Item = u32> {
+pub(super) fn set_bits(mut mask: u32) -> impl Iterator<Item = u32> {
     std::iter::from_fn(move || {
         (mask != 0).then(|| {
             let bit = mask.trailing_zeros();
