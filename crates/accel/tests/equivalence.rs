@@ -695,3 +695,98 @@ fn boxed_list_answers_as_the_exhaustive_one_bit_for_bit() {
     }
     assert!(hits > 3000 && occluded_count > 2000, "the rays must hit things: {hits} hits, {occluded_count} occluded");
 }
+
+/// Triangles answer a packet bit for bit as they answer each of its rays, however a packet's rays
+/// are grouped at a leaf: a floor of two large triangles under closed meshes (leaves of one to eight
+/// triangles, most rays of a tile meeting the same ones), each triangle also held twice (a tie its
+/// lower index wins), at sizes of 1e-4 and 1e4 far from the origin as well as 1; tiles from a point
+/// and from a lens, with and without a minimum distance; then shadow rays that start exactly on the
+/// tile's hits (the triangle they leave is too close to call in f32) towards one light, each with its
+/// own end; and rays aimed exactly at the meshes' vertices, where edge functions are too close to call.
+#[test]
+fn triangle_packets_answer_as_single_rays_bit_for_bit() {
+    let mut rng = Pcg32::new(23, 9);
+    let (mut hits, mut ties, mut occluded_count) = (0, 0, 0);
+    for (scale, offset) in [(1.0, Vec3A::ZERO), (1e-4, Vec3A::new(3e3, -1e3, 2e3)), (1e4, Vec3A::new(-2e4, 5e4, 1e4))] {
+        let at = |p: Vec3A| offset + p * scale;
+        let mut tris = vec![
+            Triangle::new(Vec3A::new(-30.0, -8.0, -30.0), Vec3A::new(30.0, -8.0, -30.0), Vec3A::new(30.0, -8.0, 30.0)),
+            Triangle::new(Vec3A::new(-30.0, -8.0, -30.0), Vec3A::new(30.0, -8.0, 30.0), Vec3A::new(-30.0, -8.0, 30.0)),
+        ];
+        for c in 0..3 {
+            tris.extend(tessellated_cube(point(&mut rng, 6.0), 1.0 + 2.0 * uniform(&mut rng), [1, 3, 6][c]));
+        }
+        let vertices: Vec<Vec3A> = tris[2..].iter().flat_map(|t| t.p).map(at).collect();
+        let mut prims: Vec<Primitive> = tris.into_iter().map(Primitive::Triangle).collect();
+        let twins: Vec<Primitive> = prims.iter().step_by(3).cloned().collect();
+        let twin_ids = prims.len() as u32..(prims.len() + twins.len()) as u32;
+        prims.extend(twins);
+        let prims: Vec<Primitive> = prims.iter().map(|p| moved(p, scale, offset)).collect();
+        for kernel in [BvhKernel::Portable, BvhKernel::best()] {
+            let bvh = checked(Bvh::with_kernel(prims.clone(), Interval::new(0.0, 1.0), BvhBuild::Sah, kernel));
+            for b in 0..60 {
+                let origin = at(point(&mut rng, 18.0) + Vec3A::new(0.0, 20.0, 0.0));
+                let aim = at(point(&mut rng, 6.0));
+                let (spacing, lens) = ([0.002, 0.05, 0.4][b % 3] * scale, [0.0, 0.3][b % 2] * scale);
+                let rays = tile(&mut rng, origin, aim, spacing, lens, 8);
+                let t_range = if b % 4 == 1 { Interval::new(3.0 * scale, 40.0 * scale) } else { Interval::POSITIVE };
+                let mut got = vec![None; rays.len()];
+                bvh.closest_hits(&rays, t_range, &mut got);
+                let bits = |h: Option<PrimitiveHit>| {
+                    h.map(|h| {
+                        let v = |v: Vec3A| v.to_array().map(f32::to_bits);
+                        (
+                            h.primitive,
+                            h.hit.t.to_bits(),
+                            v(h.hit.point),
+                            v(h.hit.normal),
+                            h.hit.uv.to_array().map(f32::to_bits),
+                        )
+                    })
+                };
+                for (ray, got) in rays.iter().zip(&got) {
+                    let expected = bvh.closest_hit(ray, t_range);
+                    assert_eq!(bits(*got), bits(expected), "{kernel:?}: {ray:?} in {t_range:?}");
+                    hits += got.is_some() as usize;
+                    ties += got.is_some_and(|h| twin_ids.contains(&h.primitive)) as usize;
+                }
+                let light = at(point(&mut rng, 20.0) + Vec3A::new(0.0, 30.0, 0.0));
+                let (mut shadow, mut ends) = (Vec::new(), Vec::new());
+                for (i, h) in got.iter().flatten().enumerate() {
+                    shadow.push(Ray::new(h.hit.point, (light - h.hit.point).normalize()));
+                    ends.push((light - h.hit.point).length() * [1.0, 0.5, 2.0][i % 3]);
+                }
+                // From the light through a run of the meshes' vertices.
+                let start = rng.next_u32() as usize % vertices.len();
+                for (i, &v) in vertices.iter().cycle().skip(start).take(64).enumerate() {
+                    let ray = Ray::new(light, (v - light).normalize());
+                    let end = (v - light).length() * [2.0, 1.0, 0.999][i % 3];
+                    let expected = bvh.closest_hit(&ray, Interval::POSITIVE);
+                    let mut one = [None];
+                    bvh.closest_hits(&[ray; 4], Interval::POSITIVE, &mut [None; 4]);
+                    bvh.closest_hits(std::slice::from_ref(&ray), Interval::POSITIVE, &mut one);
+                    assert_eq!(bits(one[0]), bits(expected), "{kernel:?}: {ray:?}");
+                    shadow.push(ray);
+                    ends.push(end);
+                }
+                let aimed = &shadow[shadow.len() - 64..];
+                let mut got = vec![None; aimed.len()];
+                bvh.closest_hits(aimed, Interval::POSITIVE, &mut got);
+                for (ray, got) in aimed.iter().zip(&got) {
+                    assert_eq!(bits(*got), bits(bvh.closest_hit(ray, Interval::POSITIVE)), "{kernel:?}: {ray:?}");
+                }
+                let mut occluded = vec![false; shadow.len()];
+                bvh.occluded_each_within(&shadow, &ends, &mut occluded);
+                for ((ray, &t), &o) in shadow.iter().zip(&ends).zip(&occluded) {
+                    assert_eq!(o, bvh.occluded(ray, t), "{kernel:?}: occlusion of {ray:?} before {t}");
+                    occluded_count += o as usize;
+                }
+            }
+        }
+    }
+    assert!(
+        hits > 15_000 && occluded_count > 2_000,
+        "the rays must hit things: {hits} hits, {occluded_count} occluded"
+    );
+    assert_eq!(ties, 0, "a triangle held twice is reported under its lower index");
+}

@@ -6,6 +6,7 @@
 //! Queries that use it run inside [`V3::vectorize`], which compiles them with AVX2 enabled; the token
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
 
+use glam::Vec4;
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
@@ -13,7 +14,7 @@ use std::arch::x86_64::{__m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CM
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
-use super::stream::{Leaves, PacketQuery, Report};
+use super::stream::{Block, Found, Leaves, PacketQuery, RayGroup, Report};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
 use crate::Tally;
@@ -478,6 +479,14 @@ fn edges(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> Edges {
         }};
     }
     let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (sheared!(0), sheared!(1), sheared!(2));
+    edge_functions(simd, [ax, bx, cx], [ay, by, cy], [az, bz, cz])
+}
+
+/// [`Edges`] of triangles whose vertices are at `x`, `y`, `z` in the rays' frames (`z` not yet
+/// scaled), lane by lane.
+#[inline(always)]
+fn edge_functions(simd: V3, [ax, bx, cx]: [__m256; 3], [ay, by, cy]: [__m256; 3], z: [__m256; 3]) -> Edges {
+    let avx = simd.avx;
     let sign = avx._mm256_set1_ps(-0.0);
     let (g3, tiny) = (avx._mm256_set1_ps(gamma(3)), avx._mm256_set1_ps(f32::MIN_POSITIVE));
     macro_rules! edge {
@@ -488,13 +497,20 @@ fn edges(simd: V3, leaf: &Leaf, ray: &ShearedRay) -> Edges {
         }};
     }
     let ((u, eu), (v, ev), (w, ew)) = (edge!(cx, by, cy, bx), edge!(ax, cy, ay, cx), edge!(bx, ay, by, ax));
-    Edges { x: [ax, bx, cx], y: [ay, by, cy], z: [az, bz, cz], u, v, w, error: [eu, ev, ew] }
+    Edges { x: [ax, bx, cx], y: [ay, by, cy], z, u, v, w, error: [eu, ev, ew] }
 }
 
 /// The candidate lanes of a leaf of `count` triangles: all but those with two edge functions of
 /// opposite signs beyond their error bounds.
 #[inline(always)]
 fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
+    !rejected_lanes(simd, e) & ((1 << count) - 1)
+}
+
+/// The lanes with two edge functions of opposite signs beyond their error bounds: those no ray's
+/// test can hit.
+#[inline(always)]
+fn rejected_lanes(simd: V3, e: &Edges) -> u32 {
     let avx = simd.avx;
     let sign = avx._mm256_set1_ps(-0.0);
     let [eu, ev, ew] = e.error;
@@ -502,8 +518,7 @@ fn candidate_lanes(simd: V3, e: &Edges, count: usize) -> u32 {
     let above = |x: __m256, err: __m256| avx._mm256_cmp_ps::<_CMP_GT_OQ>(x, err);
     let negative = avx._mm256_or_ps(avx._mm256_or_ps(below(e.u, eu), below(e.v, ev)), below(e.w, ew));
     let positive = avx._mm256_or_ps(avx._mm256_or_ps(above(e.u, eu), above(e.v, ev)), above(e.w, ew));
-    let rejected = avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32;
-    !rejected & ((1 << count) - 1)
+    avx._mm256_movemask_ps(avx._mm256_and_ps(negative, positive)) as u32
 }
 
 /// The any-hit verdict of a leaf's lanes, decided in AVX registers with the operations of the scalar
@@ -527,6 +542,15 @@ struct Verdict {
 #[inline(always)]
 fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interval) -> Verdict {
     let avx = simd.avx;
+    let splat = |x: f32| avx._mm256_set1_ps(x);
+    verdict_lanes(simd, e, candidates, splat(ray.shear[2]), splat(range.min), splat(range.max))
+}
+
+/// [`verdict`] of lanes that each have their own ray: the shears `sz` and the ranges' ends `min`
+/// and `max`, lane by lane.
+#[inline(always)]
+fn verdict_lanes(simd: V3, e: &Edges, candidates: u32, sz: __m256, min: __m256, max: __m256) -> Verdict {
+    let avx = simd.avx;
     // Lanes the vector test decides: every edge function beyond its error bound (the scalar test
     // recomputes the others in f64), so none is NaN either (a NaN among the maxima below would be taken
     // where `f32::max` skips it).
@@ -539,7 +563,6 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     if decided == 0 {
         return Verdict { hit: 0, open: candidates, t: zero, delta_t: zero, inv: zero };
     }
-    let sz = avx._mm256_set1_ps(ray.shear[2]);
     let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
     let det = avx._mm256_add_ps(avx._mm256_add_ps(e.u, e.v), e.w);
     let inv = avx._mm256_div_ps(avx._mm256_set1_ps(1.0), det);
@@ -565,10 +588,7 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     let delta_t =
         avx._mm256_add_ps(avx._mm256_mul_ps(avx._mm256_add_ps(relative, tiny), abs(inv)), splat(TINY_DISTANCE));
     let finite = |x: __m256| avx._mm256_cmp_ps::<_CMP_LT_OQ>(abs(x), splat(f32::INFINITY));
-    let in_range = avx._mm256_and_ps(
-        avx._mm256_cmp_ps::<_CMP_GE_OQ>(t, splat(range.min)),
-        avx._mm256_cmp_ps::<_CMP_LE_OQ>(t, splat(range.max)),
-    );
+    let in_range = avx._mm256_and_ps(avx._mm256_cmp_ps::<_CMP_GE_OQ>(t, min), avx._mm256_cmp_ps::<_CMP_LE_OQ>(t, max));
     // The scalar test rejects a lane whose determinant is not finite (it is not zero: the edge functions
     // are non-zero and of one sign), or whose distance and bound are finite and put it out of the range;
     // it accepts one whose distance is in the range and beyond its finite bound. Lanes whose distance or
@@ -577,8 +597,8 @@ fn verdict(simd: V3, e: &Edges, candidates: u32, ray: &ShearedRay, range: Interv
     let out = avx._mm256_and_ps(
         bounded,
         avx._mm256_or_ps(
-            avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_sub_ps(t, delta_t), splat(range.max)),
-            avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_add_ps(t, delta_t), splat(range.min)),
+            avx._mm256_cmp_ps::<_CMP_GT_OQ>(avx._mm256_sub_ps(t, delta_t), max),
+            avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_add_ps(t, delta_t), min),
         ),
     );
     let rejected = decided
@@ -747,6 +767,250 @@ impl Filter for V3 {
     #[inline(always)]
     fn closest_of_candidates(self, test: Candidates, e: &Edges) -> f32 {
         closest_of_candidates(self, test, e)
+    }
+
+    /// The block's rays together, a triangle at a time ([`ClosestBlock`]).
+    const BLOCKS: bool = true;
+
+    #[inline(always)]
+    fn closest_in_block(self, leaves: &[Leaf], (first, count): (usize, usize), t_min: f32, block: Block<Found>) {
+        closest_block(self, ClosestBlock { simd: self, leaves, first, count, t_min, block });
+    }
+
+    #[inline(always)]
+    fn occluded_in_block(self, leaf: &Leaf, count: usize, block: Block<bool>) {
+        occluded_block(self, OccludedBlock { simd: self, leaf, count, block });
+    }
+}
+
+/// Up to eight rays that share their frame's axes, lane by lane, for the test of one triangle at a
+/// time: the origins along the frame's axes and the shears, each as [`edges`] splats them for one
+/// ray.
+struct BlockFrame {
+    simd: V3,
+    axes: [usize; 3],
+    origin: [__m256; 3],
+    shear: [__m256; 3],
+}
+
+impl BlockFrame {
+    #[inline(always)]
+    fn new(simd: V3, groups: &[RayGroup], axes: [usize; 3]) -> Self {
+        let axes = axes.map(|k| k.min(2));
+        let lanes = |row: fn(&RayGroup) -> &[Vec4; 3], a: usize| eight(simd, row(&groups[0])[a], row(&groups[1])[a]);
+        Self {
+            simd,
+            axes,
+            origin: axes.map(|k| lanes(|g| &g.origin, k)),
+            shear: [0, 1, 2].map(|a| lanes(|g| &g.shear, a)),
+        }
+    }
+
+    /// [`Edges`] of triangle `j` of `leaf` for each lane's ray, with the very operations of [`edges`].
+    #[inline(always)]
+    fn edges(&self, leaf: &Leaf, j: usize) -> Edges {
+        let avx = self.simd.avx;
+        let [kx, ky, kz] = self.axes;
+        let [ox, oy, oz] = self.origin;
+        let [sx, sy, _] = self.shear;
+        // No closures here (see `Walk`).
+        macro_rules! sheared {
+            ($k:literal) => {{
+                let x = avx._mm256_set1_ps(leaf.v[$k][kx][j]);
+                let y = avx._mm256_set1_ps(leaf.v[$k][ky][j]);
+                let z = avx._mm256_set1_ps(leaf.v[$k][kz][j]);
+                let az = avx._mm256_sub_ps(z, oz);
+                (
+                    avx._mm256_sub_ps(avx._mm256_sub_ps(x, ox), avx._mm256_mul_ps(sx, az)),
+                    avx._mm256_sub_ps(avx._mm256_sub_ps(y, oy), avx._mm256_mul_ps(sy, az)),
+                    az,
+                )
+            }};
+        }
+        let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (sheared!(0), sheared!(1), sheared!(2));
+        edge_functions(self.simd, [ax, bx, cx], [ay, by, cy], [az, bz, cz])
+    }
+}
+
+/// The eight lanes of two groups' four.
+#[inline(always)]
+fn eight(simd: V3, low: Vec4, high: Vec4) -> __m256 {
+    simd.avx._mm256_set_m128(high.into(), low.into())
+}
+
+/// [`decided_distances`] of triangle `j` of `leaf` for each lane's ray (of `groups`), whose f32
+/// distance is `t`: the same operations, the triangle's normal formed once.
+#[inline(always)]
+fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[RayGroup], t: __m256, lanes: u32) -> __m256 {
+    let avx = simd.avx;
+    let p = |k: usize| [0, 1, 2].map(|a| leaf.v[k][a][j] as f64);
+    let (p0, p1, p2) = (p(0), p(1), p(2));
+    let e1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
+    let e2 = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
+    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    let (nx, ny, nz) = (avx._mm256_set1_pd(n[0]), avx._mm256_set1_pd(n[1]), avx._mm256_set1_pd(n[2]));
+    let (px, py, pz) = (avx._mm256_set1_pd(p0[0]), avx._mm256_set1_pd(p0[1]), avx._mm256_set1_pd(p0[2]));
+    // No closures here (see `Walk`).
+    macro_rules! distance {
+        ($half:literal) => {{
+            let group = &groups[$half];
+            macro_rules! wide {
+                ($four:expr) => {
+                    avx._mm256_cvtps_pd($four.into())
+                };
+            }
+            let (qx, qy, qz) = (
+                avx._mm256_sub_pd(px, wide!(group.origin[0])),
+                avx._mm256_sub_pd(py, wide!(group.origin[1])),
+                avx._mm256_sub_pd(pz, wide!(group.origin[2])),
+            );
+            let (dx, dy, dz) = (wide!(group.dir[0]), wide!(group.dir[1]), wide!(group.dir[2]));
+            let den = avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(nx, dx), avx._mm256_mul_pd(ny, dy)),
+                avx._mm256_mul_pd(nz, dz),
+            );
+            let num = avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(nx, qx), avx._mm256_mul_pd(ny, qy)),
+                avx._mm256_mul_pd(nz, qz),
+            );
+            avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
+        }};
+    }
+    let none = simd.sse._mm_setzero_ps();
+    let plane = avx._mm256_set_m128(
+        if lanes & 0xF0 != 0 { distance!(1) } else { none },
+        if lanes & 0x0F != 0 { distance!(0) } else { none },
+    );
+    let finite = avx._mm256_cmp_ps::<_CMP_LT_OQ>(
+        avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), plane),
+        avx._mm256_set1_ps(f32::INFINITY),
+    );
+    avx._mm256_blendv_ps(t, plane, finite)
+}
+
+/// [`Filter::closest_in_block`]: each triangle of the leaf in turn for all the block's rays at once, its
+/// edge functions and [`Verdict`] lane by lane, then for each ray it may hit, in turn, what
+/// [`closest_of_candidates`] does with that lane: each ray takes the leaf's triangles in the order its
+/// own test takes them, each decided as the scalar test decides it within the ray's range at that
+/// point, so each ray's answer is its own test's, bit for bit.
+struct ClosestBlock<'a, 'b> {
+    simd: V3,
+    leaves: &'a [Leaf],
+    first: usize,
+    count: usize,
+    t_min: f32,
+    block: Block<'b, Found>,
+}
+
+/// [`ClosestBlock`] out of line, as [`closest_of_candidates`] is.
+#[inline(never)]
+fn closest_block(simd: V3, test: ClosestBlock) {
+    simd.exact(test)
+}
+
+impl Exact for ClosestBlock<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run(self) {
+        let Self { simd, leaves, first, count, t_min, block } = self;
+        let Block { lanes, axes, groups, sheared, t_max, kept } = block;
+        let avx = simd.avx;
+        let leaf = &leaves[first];
+        let frame = BlockFrame::new(simd, groups, axes);
+        let min = avx._mm256_set1_ps(t_min);
+        for j in 0..count {
+            let e = frame.edges(leaf, j);
+            let candidates = lanes & !rejected_lanes(simd, &e);
+            if candidates == 0 {
+                continue;
+            }
+            let mut ends = [0.0; 8];
+            ends.copy_from_slice(&t_max[..8]);
+            let Verdict { hit, open, t, delta_t, inv } =
+                verdict_lanes(simd, &e, candidates, frame.shear[2], min, pulp::cast(ends));
+            if hit | open == 0 {
+                continue;
+            }
+            let decided: [f32; 8] =
+                if hit != 0 { pulp::cast(decided_distances_of_rays(simd, leaf, j, groups, t, hit)) } else { [0.0; 8] };
+            let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
+            let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
+            let bit = j as u32;
+            for lane in set_bits(hit | open) {
+                let l = lane as usize;
+                let mut range = Interval::new(t_min, t_max[l]);
+                let mut test =
+                    Candidates { leaf, leaves, first, lanes: 0, ray: &sheared[l], range, found: &mut kept[l] };
+                if open & (1 << lane) != 0 {
+                    test.decide(bit, &mut range);
+                } else if t[l] - delta_t[l] <= range.max {
+                    let t = decided[l];
+                    if range.contains(t) && t > 0.0 {
+                        test.keep(bit, TriangleHit { t, b: [b[0][l], b[1][l], b[2][l]] }, &mut range);
+                    }
+                }
+                t_max[l] = range.max;
+            }
+        }
+    }
+}
+
+/// [`Filter::occluded_in_block`]: each triangle of the leaf in turn for the block's rays not yet
+/// occluded, its [`Verdict`] lane by lane and the scalar test for the lanes it leaves open, as
+/// [`Filter::leaf_occluded`] decides each ray's lanes.
+struct OccludedBlock<'a, 'b> {
+    simd: V3,
+    leaf: &'a Leaf,
+    count: usize,
+    block: Block<'b, bool>,
+}
+
+/// [`OccludedBlock`] out of line.
+#[inline(never)]
+fn occluded_block(simd: V3, test: OccludedBlock) {
+    simd.exact(test)
+}
+
+impl Exact for OccludedBlock<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run(self) {
+        let Self { simd, leaf, count, block } = self;
+        let Block { lanes, axes, groups, sheared, t_max, kept } = block;
+        let frame = BlockFrame::new(simd, groups, axes);
+        let zero = simd.avx._mm256_setzero_ps();
+        let mut active = lanes;
+        for j in 0..count {
+            let e = frame.edges(leaf, j);
+            let candidates = active & !rejected_lanes(simd, &e);
+            if candidates == 0 {
+                continue;
+            }
+            let mut ends = [0.0; 8];
+            ends.copy_from_slice(&t_max[..8]);
+            let Verdict { hit, open, .. } = verdict_lanes(simd, &e, candidates, frame.shear[2], zero, pulp::cast(ends));
+            let mut occluded = hit;
+            for lane in set_bits(open) {
+                let l = lane as usize;
+                if raylume_intersect::watertight_hits(
+                    &leaf.triangle(j as u32),
+                    &sheared[l],
+                    Interval::new(0.0, t_max[l]),
+                ) {
+                    occluded |= 1 << lane;
+                }
+            }
+            for lane in set_bits(occluded) {
+                kept[lane as usize] = true;
+                t_max[lane as usize] = f32::NEG_INFINITY;
+            }
+            active &= !occluded;
+            if active == 0 {
+                return;
+            }
+        }
     }
 }
 

@@ -7,6 +7,7 @@
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::{ShearedRay, TriangleHit};
 
+use super::stream::{Block, Found};
 use super::triangles::{LANES, Leaf, candidates_of};
 use super::wide::{LeafTest, leaf_range, set_bits};
 use crate::Tally;
@@ -44,6 +45,35 @@ pub(super) trait Filter: Copy {
     fn closest_of_candidates(self, test: Candidates, prepared: &Self::Prepared) -> f32 {
         let _ = prepared;
         closest_of_candidates_scalar(test)
+    }
+
+    /// Whether the filter tests a block of rays a triangle at a time ([`Filter::closest_in_block`],
+    /// [`Filter::occluded_in_block`]); otherwise a packet's rays test each leaf one by one.
+    const BLOCKS: bool = false;
+
+    /// [`closest_in_leaf`] for each ray of `block` within `[t_min, t_max]`, each ray's `t_max` set to
+    /// the new end of its range.
+    #[inline(always)]
+    fn closest_in_block(self, leaves: &[Leaf], (first, count): (usize, usize), t_min: f32, block: Block<Found>) {
+        for lane in set_bits(block.lanes) {
+            let l = lane as usize;
+            let range = Interval::new(t_min, block.t_max[l]);
+            block.t_max[l] =
+                closest_in_leaf(self, leaves, (first, count), &block.sheared[l], range, &mut block.kept[l]);
+        }
+    }
+
+    /// [`Filter::leaf_occluded`] for each ray of `block` within `(0, t_max)`: an occluded ray is marked
+    /// and retired (its `t_max` becomes `-inf`).
+    #[inline(always)]
+    fn occluded_in_block(self, leaf: &Leaf, count: usize, block: Block<bool>) {
+        for lane in set_bits(block.lanes) {
+            let l = lane as usize;
+            if self.leaf_occluded(leaf, count, &block.sheared[l], Interval::new(0.0, block.t_max[l])) {
+                block.kept[l] = true;
+                block.t_max[l] = f32::NEG_INFINITY;
+            }
+        }
     }
 
     /// Runs a leaf's exact test compiled with the filter's target features (the test's function is not

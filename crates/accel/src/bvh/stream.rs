@@ -2,7 +2,10 @@
 //! tree of the other shapes, together: one box test per node for the whole packet
 //! ([`Frustum`](super::wide::Frustum)), then at each leaf the leaf's box tested for four rays at a time
 //! and the leaf's triangles or shapes tested for each ray that meets the box, exactly as that ray alone
-//! would test them. Every ray gets the answer of the single-ray query.
+//! would test them. Where eight neighbouring rays meet a leaf's box, at least as many as it has
+//! triangles, and share their watertight frame's axes, the AVX2 kernel tests each triangle once for
+//! all of them ([`Block`]), each ray's lane decided as its own test decides it. Every ray gets the
+//! answer of the single-ray query.
 
 use glam::{BVec3A, Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
@@ -64,10 +67,15 @@ pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
 /// Four rays of a packet, lane by lane, for the box test of a leaf: each lane's answer is the one
 /// [`BoxRay`](super::wide::BoxRay) gives that ray, with the same operations.
 #[derive(Clone, Copy, Debug)]
-struct RayGroup {
-    origin: [Vec4; 3],
+pub(super) struct RayGroup {
+    /// The origins and directions by axis.
+    pub origin: [Vec4; 3],
+    pub dir: [Vec4; 3],
     inv_near: [Vec4; 3],
     inv_far: [Vec4; 3],
+    /// The watertight frames' shears ([`ShearedRay::shear`]) by component, where the packet's state
+    /// made them (zero otherwise).
+    pub shear: [Vec4; 3],
 }
 
 impl RayGroup {
@@ -87,8 +95,10 @@ impl RayGroup {
         let inv_near = dir.map(|d| Vec4::ONE / d);
         let group = Self {
             origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin),
+            dir,
             inv_near,
             inv_far: inv_near.map(|inv| inv * WIDEN),
+            shear: [Vec4::ZERO; 3],
         };
         (group, dir)
     }
@@ -110,9 +120,9 @@ impl RayGroup {
 
 /// The watertight frames of `rays` (one to four, directions `dir` by axis) into `frames`, each the
 /// one [`ShearedRay::new`] makes, with its operations lane by lane; the end of range of a ray that
-/// has none becomes `-inf` (its frame is left as it was).
+/// has none becomes `-inf` (its frame is left as it was). Returns the frames' shears lane by lane.
 #[inline(always)]
-fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRay], ends: &mut [f32]) {
+fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRay], ends: &mut [f32]) -> [Vec4; 3] {
     let (ax, ay, az) = (dx.abs(), dy.abs(), dz.abs());
     // The axis of the largest component, ties as `ShearedRay::new` breaks them.
     let (x_over_y, x_over_z, y_over_z) = (ax.cmpgt(ay), ax.cmpgt(az), ay.cmpgt(az));
@@ -124,7 +134,8 @@ fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRa
     let negative = d_z.cmplt(Vec4::ZERO);
     let (d_x, d_y) = (Vec4::select(negative, after, next), Vec4::select(negative, next, after));
     let sz = Vec4::ONE / d_z;
-    let (sx, sy, sz) = ((d_x * sz).to_array(), (d_y * sz).to_array(), sz.to_array());
+    let shears = [d_x * sz, d_y * sz, sz];
+    let [sx, sy, sz] = shears.map(|s| s.to_array());
     let usable = (d_z.cmpne(Vec4::ZERO) & d_z.abs().cmplt(Vec4::INFINITY)).bitmask();
     let (along_x, along_y, negative) = (along_x.bitmask(), along_y.bitmask(), negative.bitmask());
     for (l, ((frame, end), ray)) in frames.iter_mut().zip(ends).zip(rays).enumerate() {
@@ -143,6 +154,7 @@ fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRa
         let (kx, ky) = if negative & (1 << l) != 0 { (ky, kx) } else { (kx, ky) };
         *frame = ShearedRay { origin: ray.origin, dir: ray.dir, axes: [kx, ky, kz], shear: [sx[l], sy[l], sz[l]] };
     }
+    shears
 }
 
 /// A packet's rays and what the walk keeps for each of them (`K`, see [`RayTest::Kept`]), made when
@@ -156,6 +168,22 @@ struct Rays<'a, K> {
     sheared: [ShearedRay; PACKET],
     /// What the test keeps for each ray.
     kept: [K; PACKET],
+}
+
+/// Up to eight rays of a packet that meet a leaf's box and share their frame's axes, given to a test
+/// that takes them together ([`RayTest::test_block`]): rays `8 b..8 b + 8` of a packet, those of
+/// `lanes`.
+pub(super) struct Block<'a, K> {
+    /// The rays in the block (bit `l`: the block's ray `l`).
+    pub lanes: u32,
+    /// The axes every ray of `lanes` has in its frame.
+    pub axes: [usize; 3],
+    /// The block's two groups of four rays, lane by lane.
+    pub groups: &'a [RayGroup],
+    /// The block's frames, ends of range and what the test keeps.
+    pub sheared: &'a [ShearedRay],
+    pub t_max: &'a mut [f32],
+    pub kept: &'a mut [K],
 }
 
 /// The frame held for a ray that has none (and for the slots past a short packet's rays): never
@@ -175,8 +203,8 @@ impl<'a, K: Copy> Rays<'a, K> {
                 return RayGroup::new(&rays[..1]).0;
             };
             let rays = &rays[..rays.len().min(4)];
-            let (group, dir) = RayGroup::new(rays);
-            sheared_frames(rays, dir, &mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
+            let (mut group, dir) = RayGroup::new(rays);
+            group.shear = sheared_frames(rays, dir, &mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
             group
         });
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
@@ -187,30 +215,63 @@ impl<'a, K: Copy> Rays<'a, K> {
     /// `test` returns; returns the new largest one.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn each_in_box(
+    fn each_in_box<R: RayTest<Kept = K>>(
         &mut self,
         bounds: &[f32; 6],
         first: usize,
         count: usize,
         negative: [bool; 3],
         t_min: f32,
-        test: &mut impl RayTest<Kept = K>,
+        test: &mut R,
     ) -> f32 {
         let (near_plane, far_plane) = leaf_planes(std::slice::from_ref(bounds), negative);
         let t_min_lanes = Vec4::splat(t_min);
         let mut largest = Vec4::NEG_INFINITY;
-        for g in 0..self.rays.len().div_ceil(4) {
-            // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
-            let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
-            let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
-            for lane in set_bits(self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends)) {
-                let i = 4 * g + lane as usize;
-                self.t_max[i] = test.test(&mut self.kept[i], first, count, &self.sheared[i], self.t_max[i]);
+        let groups = self.rays.len().div_ceil(4);
+        // Blocks of two groups: eight rays.
+        for b in 0..groups.div_ceil(2) {
+            let mut lanes = 0;
+            for g in 2 * b..(2 * b + 2).min(groups) {
+                // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
+                let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
+                let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
+                lanes |= self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends) << (4 * (g - 2 * b));
             }
-            largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
+            let base = 8 * b;
+            // Together when the block has at least as many rays in the box as the leaf has triangles:
+            // each triangle is then tested once for all of them, where each ray would test every one.
+            if R::BLOCKS
+                && lanes.count_ones() as usize >= count
+                && let Some(axes) = shared_axes(&self.sheared[base..base + 8], lanes)
+            {
+                let block = Block {
+                    lanes,
+                    axes,
+                    groups: &self.groups[2 * b..2 * b + 2],
+                    sheared: &self.sheared[base..base + 8],
+                    t_max: &mut self.t_max[base..base + 8],
+                    kept: &mut self.kept[base..base + 8],
+                };
+                test.test_block(block, first, count);
+            } else {
+                for lane in set_bits(lanes) {
+                    let i = base + lane as usize;
+                    self.t_max[i] = test.test(&mut self.kept[i], first, count, &self.sheared[i], self.t_max[i]);
+                }
+            }
+            for g in 2 * b..(2 * b + 2).min(groups) {
+                largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
+            }
         }
         largest.max_element()
     }
+}
+
+/// The axes of the frames of the rays `lanes` among `frames`, if they all share them.
+#[inline(always)]
+fn shared_axes(frames: &[ShearedRay], lanes: u32) -> Option<[usize; 3]> {
+    let axes = frames[lanes.trailing_zeros() as usize].axes;
+    set_bits(lanes).all(|l| frames[l as usize].axes == axes).then_some(axes)
 }
 
 /// Whether each ray of a packet hits one of `prims` (the shapes other than triangles, their tree
@@ -356,8 +417,20 @@ trait RayTest {
     /// What the walk keeps for each ray, [`RayTest::START`] at first.
     type Kept: Copy;
     const START: Self::Kept;
+    /// Whether the test takes the rays that meet a leaf's box eight at a time ([`RayTest::test_block`]).
+    const BLOCKS: bool = false;
 
     fn test(&mut self, kept: &mut Self::Kept, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
+
+    /// [`RayTest::test`] for each ray of `block`, each ray's `t_max` set to what it returns; one
+    /// ray at a time unless the test does better.
+    #[inline(always)]
+    fn test_block(&mut self, block: Block<Self::Kept>, first: usize, count: usize) {
+        for lane in set_bits(block.lanes) {
+            let l = lane as usize;
+            block.t_max[l] = self.test(&mut block.kept[l], first, count, &block.sheared[l], block.t_max[l]);
+        }
+    }
 }
 
 /// The leaf test of a packet walk: the leaf's box for the packet's rays, then `test` for each ray in it.
@@ -407,10 +480,16 @@ struct Closest<'a, F> {
 impl<F: Filter> RayTest for Closest<'_, F> {
     type Kept = Found;
     const START: Found = None;
+    const BLOCKS: bool = F::BLOCKS;
 
     #[inline(always)]
     fn test(&mut self, found: &mut Found, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
         closest_in_leaf(self.filter, self.leaves, (first, count), sheared, Interval::new(self.t_min, t_max), found)
+    }
+
+    #[inline(always)]
+    fn test_block(&mut self, block: Block<Found>, first: usize, count: usize) {
+        self.filter.closest_in_block(self.leaves, (first, count), self.t_min, block);
     }
 }
 
@@ -425,6 +504,8 @@ impl<F: Filter> RayTest for Occluded<'_, F> {
     type Kept = bool;
     const START: bool = false;
 
+    const BLOCKS: bool = F::BLOCKS;
+
     #[inline(always)]
     fn test(&mut self, occluded: &mut bool, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32 {
         if self.filter.leaf_occluded(&self.leaves[first], count, sheared, Interval::new(0.0, t_max)) {
@@ -433,6 +514,11 @@ impl<F: Filter> RayTest for Occluded<'_, F> {
         } else {
             t_max
         }
+    }
+
+    #[inline(always)]
+    fn test_block(&mut self, block: Block<bool>, first: usize, count: usize) {
+        self.filter.occluded_in_block(&self.leaves[first], count, block);
     }
 }
 

@@ -528,8 +528,9 @@ impl<const W: usize> WideTree<W> {
         // Down to the first node with two children or more, no stack is needed: many rays (those that
         // miss the mesh near its silhouette) end on that path, and clearing a stack is a large part
         // of their cost.
-        // Boxes are tested, and entries kept, up to the `reach` of the closest hit so far.
-        let reach = |t: f32| if ANY { t } else { reach(t) };
+        // Boxes are tested, and entries kept, up to the `reach` of the closest hit so far (of the
+        // query's end, for an any-hit walk: a box entered just past it, as rounded, may hold a hit at
+        // the end itself).
         let mut end = reach(t_max);
         let mut cur = self.root;
         let (near, mask) = loop {
