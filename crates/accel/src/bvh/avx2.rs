@@ -14,7 +14,7 @@ use std::arch::x86_64::{__m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CM
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
-use super::stream::{Block, Found, Leaves, PacketQuery, RayGroup, Report};
+use super::stream::{Block, Found, FrameGroup, Leaves, PacketQuery, Report};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
 use crate::Tally;
@@ -795,13 +795,13 @@ struct BlockFrame {
 
 impl BlockFrame {
     #[inline(always)]
-    fn new(simd: V3, groups: &[RayGroup], axes: [usize; 3]) -> Self {
+    fn new(simd: V3, groups: &[FrameGroup], axes: [usize; 3]) -> Self {
         let axes = axes.map(|k| k.min(2));
-        let lanes = |row: fn(&RayGroup) -> &[Vec4; 3], a: usize| eight(simd, row(&groups[0])[a], row(&groups[1])[a]);
+        let lanes = |row: fn(&FrameGroup) -> &[Vec4; 3], a: usize| eight(simd, row(&groups[0])[a], row(&groups[1])[a]);
         Self {
             simd,
             axes,
-            origin: axes.map(|k| lanes(|g| &g.origin, k)),
+            origin: axes.map(|k| lanes(|g| &g.boxes.origin, k)),
             shear: [0, 1, 2].map(|a| lanes(|g| &g.shear, a)),
         }
     }
@@ -841,7 +841,7 @@ fn eight(simd: V3, low: Vec4, high: Vec4) -> __m256 {
 /// [`decided_distances`] of triangle `j` of `leaf` for each lane's ray (of `groups`), whose f32
 /// distance is `t`: the same operations, the triangle's normal formed once.
 #[inline(always)]
-fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[RayGroup], t: __m256, lanes: u32) -> __m256 {
+fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGroup], t: __m256, lanes: u32) -> __m256 {
     let avx = simd.avx;
     let p = |k: usize| [0, 1, 2].map(|a| leaf.v[k][a][j] as f64);
     let (p0, p1, p2) = (p(0), p(1), p(2));
@@ -860,9 +860,9 @@ fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[RayGroup
                 };
             }
             let (qx, qy, qz) = (
-                avx._mm256_sub_pd(px, wide!(group.origin[0])),
-                avx._mm256_sub_pd(py, wide!(group.origin[1])),
-                avx._mm256_sub_pd(pz, wide!(group.origin[2])),
+                avx._mm256_sub_pd(px, wide!(group.boxes.origin[0])),
+                avx._mm256_sub_pd(py, wide!(group.boxes.origin[1])),
+                avx._mm256_sub_pd(pz, wide!(group.boxes.origin[2])),
             );
             let (dx, dy, dz) = (wide!(group.dir[0]), wide!(group.dir[1]), wide!(group.dir[2]));
             let den = avx._mm256_add_pd(

@@ -68,13 +68,18 @@ pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
 /// [`BoxRay`](super::wide::BoxRay) gives that ray, with the same operations.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayGroup {
-    /// The origins and directions by axis.
+    /// The origins by axis.
     pub origin: [Vec4; 3],
-    pub dir: [Vec4; 3],
     inv_near: [Vec4; 3],
     inv_far: [Vec4; 3],
-    /// The watertight frames' shears ([`ShearedRay::shear`]) by component, where the packet's state
-    /// made them (zero otherwise).
+}
+
+/// Four rays of a packet for the triangles' tests, lane by lane: their box test ([`RayGroup`]), their
+/// directions by axis and their watertight frames' shears ([`ShearedRay::shear`]) by component.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FrameGroup {
+    pub boxes: RayGroup,
+    pub dir: [Vec4; 3],
     pub shear: [Vec4; 3],
 }
 
@@ -95,10 +100,8 @@ impl RayGroup {
         let inv_near = dir.map(|d| Vec4::ONE / d);
         let group = Self {
             origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin),
-            dir,
             inv_near,
             inv_far: inv_near.map(|inv| inv * WIDEN),
-            shear: [Vec4::ZERO; 3],
         };
         (group, dir)
     }
@@ -161,7 +164,7 @@ fn sheared_frames(rays: &[Ray], [dx, dy, dz]: [Vec4; 3], frames: &mut [ShearedRa
 /// the walk reaches its first leaf (most packets of a camera's rays reach none).
 struct Rays<'a, K> {
     rays: &'a [Ray],
-    groups: [RayGroup; GROUPS],
+    groups: [FrameGroup; GROUPS],
     /// Each ray's end of range: it shrinks with the hits found; `-inf` retires the ray.
     t_max: [f32; PACKET],
     /// Each ray's watertight frame ([`NO_FRAME`] where a ray has none: it is retired).
@@ -179,7 +182,7 @@ pub(super) struct Block<'a, K> {
     /// The axes every ray of `lanes` has in its frame.
     pub axes: [usize; 3],
     /// The block's two groups of four rays, lane by lane.
-    pub groups: &'a [RayGroup],
+    pub groups: &'a [FrameGroup],
     /// The block's frames, ends of range and what the test keeps.
     pub sheared: &'a [ShearedRay],
     pub t_max: &'a mut [f32],
@@ -200,12 +203,13 @@ impl<'a, K: Copy> Rays<'a, K> {
         // Groups past the rays, never tested, repeat the first ray: each group is written once.
         let groups = std::array::from_fn(|g| {
             let Some(rays) = rays.get(4 * g..).filter(|rest| !rest.is_empty()) else {
-                return RayGroup::new(&rays[..1]).0;
+                let (boxes, dir) = RayGroup::new(&rays[..1]);
+                return FrameGroup { boxes, dir, shear: [Vec4::ZERO; 3] };
             };
             let rays = &rays[..rays.len().min(4)];
-            let (mut group, dir) = RayGroup::new(rays);
-            group.shear = sheared_frames(rays, dir, &mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
-            group
+            let (boxes, dir) = RayGroup::new(rays);
+            let shear = sheared_frames(rays, dir, &mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
+            FrameGroup { boxes, dir, shear }
         });
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
@@ -235,7 +239,7 @@ impl<'a, K: Copy> Rays<'a, K> {
                 // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
                 let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
                 let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
-                lanes |= self.groups[g].hits(near_plane, far_plane, t_min_lanes, ends) << (4 * (g - 2 * b));
+                lanes |= self.groups[g].boxes.hits(near_plane, far_plane, t_min_lanes, ends) << (4 * (g - 2 * b));
             }
             let base = 8 * b;
             // Together when the block has at least as many rays in the box as the leaf has triangles:
