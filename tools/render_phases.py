@@ -91,7 +91,7 @@ def source(pf, ln):
 REFINEMENT = [('intersect/src/watertight.rs', 'pub fn hit(&self, tri: &Triangle) -> Hit {', 9),
               ('intersect/src/watertight.rs', 'pub fn unit_normal(tri: &Triangle)', 9),
               ('accel/src/bvh/kernel.rs', 'pub fn hit(&self, (h, leaf, bit)', 4),
-              ('intersect/src/shapes.rs', '// Reproject the point onto the sphere', 9),
+              ('intersect/src/shapes.rs', 'pub(crate) fn sphere_hit_at(center: Vec3A', 13),
               ('intersect/src/shapes.rs', 'fn curve_depth(q: Vec3A, radius: f32)', 4),
               ('intersect/src/shapes.rs', 'fn plane_hit(plane: &Plane', 5)]
 

@@ -10,10 +10,13 @@
 //! assert!(sphere.occluded(&Ray::new(Vec3A::ZERO, Vec3A::Z), 10.0));
 //! ```
 
+mod lanes;
 mod primitive;
 mod shapes;
 mod watertight;
 
+use glam::Vec4;
+pub use lanes::{LaneRoots, RayLanes, sphere_roots};
 pub use primitive::Primitive;
 use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec2, Vec3A};
 pub use shapes::intersect_moller_trumbore;
@@ -74,6 +77,25 @@ pub trait Intersect {
     #[inline]
     fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
         self.occluded(ray, t_max)
+    }
+
+    /// The roots four canonical rays find on the shape, lane by lane, within their ranges
+    /// `[min, max]`: each lane's as [`Intersect::intersect_canonical`] (or, from `min` zero,
+    /// [`Intersect::occluded_canonical`]) finds it for that ray alone. By default every lane is left
+    /// undecided, to the one-ray routines.
+    #[inline]
+    fn lane_roots(&self, rays: &RayLanes, min: Vec4, max: Vec4) -> LaneRoots {
+        let _ = (rays, min, max);
+        LaneRoots { t: Vec4::ZERO, hit: 0, undecided: 0b1111 }
+    }
+
+    /// The hit [`Intersect::intersect_canonical`] reports for `ray` within `t_range`, where
+    /// [`Intersect::lane_roots`] found its root `t` in that range (shapes that find roots make the hit
+    /// from it rather than search again).
+    #[inline]
+    fn hit_at_root(&self, ray: &Ray, t: f32, t_range: Interval) -> Option<Hit> {
+        let _ = t;
+        self.intersect_canonical(ray, t_range)
     }
 
     /// The bounds of the shape (infinite for unbounded shapes such as planes).

@@ -1,6 +1,8 @@
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle};
 
-use crate::{Hit, Intersect};
+use glam::Vec4;
+
+use crate::{Hit, Intersect, LaneRoots, RayLanes};
 
 /// Every shape raylume renders, as one closed enum so the per-ray path dispatches with a `match`
 /// (static dispatch, no boxing) rather than through a vtable.
@@ -52,6 +54,16 @@ impl Intersect for Primitive {
     #[inline]
     fn occluded_canonical(&self, ray: &Ray, t_max: f32) -> bool {
         dispatch!(self, s => s.occluded_canonical(ray, t_max))
+    }
+
+    #[inline(always)]
+    fn lane_roots(&self, rays: &RayLanes, min: Vec4, max: Vec4) -> LaneRoots {
+        dispatch!(self, s => s.lane_roots(rays, min, max))
+    }
+
+    #[inline(always)]
+    fn hit_at_root(&self, ray: &Ray, t: f32, t_range: Interval) -> Option<Hit> {
+        dispatch!(self, s => s.hit_at_root(ray, t, t_range))
     }
 
     fn bounds(&self) -> Aabb {

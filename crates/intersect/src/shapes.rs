@@ -2,7 +2,9 @@
 
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Ray, Sphere, Triangle, Vec2, Vec3A, gamma};
 
-use crate::{Hit, Intersect, intersect_watertight};
+use glam::Vec4;
+
+use crate::{Hit, Intersect, LaneRoots, RayLanes, intersect_watertight, sphere_roots};
 
 /// The body of `intersect` or `occluded` of a shape whose `*_canonical` routine takes canonical rays:
 /// that routine directly for a canonical ray, else on the ray rescaled (out of line).
@@ -38,22 +40,11 @@ impl Intersect for Sphere {
 
     #[inline(always)]
     fn intersect_canonical(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {
-        let t = match sphere_root(self.center, self.radius, ray, t_range) {
-            Root::At(t) => t,
-            Root::Miss => return None,
-            Root::Wide => return sphere_hit(self.center, self.radius, ray, t_range),
-        };
-        // Reproject the point onto the sphere: its error then scales with the sphere, not the ray.
-        let offset = ray.at(t) - self.center;
-        let len = offset.length();
-        // `len > 0 && len.is_finite()` on the bits: 1 ..= f32::MAX's.
-        if len.to_bits().wrapping_sub(1) >= f32::MAX.to_bits() {
-            return None;
+        match sphere_root(self.center, self.radius, ray, t_range) {
+            Root::At(t) => sphere_hit_at(self.center, self.radius, ray, t),
+            Root::Miss => None,
+            Root::Wide => sphere_hit(self.center, self.radius, ray, t_range),
         }
-        let normal = offset / len;
-        let point = self.center + normal * self.radius;
-        let q = (self.center.abs() + (normal * self.radius).abs()) * gamma(5);
-        Some(Hit { t, point, normal, uv: Vec2::ZERO, error: q + curve_depth(q, self.radius) })
     }
 
     /// The roots only: no point, no normal.
@@ -72,10 +63,44 @@ impl Intersect for Sphere {
         }
     }
 
+    /// [`sphere_roots`]: the f32 routine's operations, lane by lane.
+    #[inline(always)]
+    fn lane_roots(&self, rays: &RayLanes, min: Vec4, max: Vec4) -> LaneRoots {
+        sphere_roots(self, rays, min, max)
+    }
+
+    #[inline(always)]
+    fn hit_at_root(&self, ray: &Ray, t: f32, _: Interval) -> Option<Hit> {
+        sphere_hit_at(self.center, self.radius, ray, t)
+    }
+
     fn bounds(&self) -> Aabb {
         let (c, r) = (v64(self.center), self.radius as f64);
         Aabb::from_f64([0, 1, 2].map(|k| c[k] - r), [0, 1, 2].map(|k| c[k] + r))
     }
+}
+
+/// The hit of a (canonical) ray on the sphere of `center` and `radius` at `t`, a root
+/// [`sphere_root`] found: the point reprojected onto the sphere, so that its error scales with the
+/// sphere, not the ray.
+#[inline(always)]
+pub(crate) fn sphere_hit_at(center: Vec3A, radius: f32, ray: &Ray, t: f32) -> Option<Hit> {
+    let offset = ray.at(t) - center;
+    let len = offset.length();
+    // `len > 0 && len.is_finite()` on the bits: 1 ..= f32::MAX's.
+    if len.to_bits().wrapping_sub(1) >= f32::MAX.to_bits() {
+        return None;
+    }
+    let normal = offset / len;
+    let point = center + normal * radius;
+    let q = (center.abs() + (normal * radius).abs()) * gamma(5);
+    Some(Hit { t, point, normal, uv: Vec2::ZERO, error: q + curve_depth(q, radius) })
+}
+
+/// Whether the f32 routine takes a sphere of this radius ([`sphere_root`]); beyond, f64 decides.
+#[inline(always)]
+pub(crate) fn sphere_radius_in_range(radius: f32) -> bool {
+    (1e-15..=1e15).contains(&radius)
 }
 
 /// The first root of a sphere's quadratic within a range.
@@ -92,7 +117,7 @@ enum Root {
 /// cancel in f64.
 #[inline(always)]
 fn sphere_root(center: Vec3A, radius: f32, ray: &Ray, range: Interval) -> Root {
-    if !(1e-15..=1e15).contains(&radius) {
+    if !sphere_radius_in_range(radius) {
         return Root::Wide;
     }
     let f = ray.origin - center;

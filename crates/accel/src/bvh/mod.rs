@@ -453,7 +453,7 @@ impl<P: Intersect> Bvh<P> {
         }
         let frustum = Frustum::new(rays, negative);
         if let Some(tris) = tris
-            && self.triangles_node.is_none_or(|node| node.meets_packet(&frustum, 0.0, stream::largest(&ends)))
+            && self.triangles_node.is_none_or(|node| node.meets_packet(&frustum, 0.0, reach(stream::largest(&ends))))
         {
             let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
             tris.answer_packet(rays, negative, query);

@@ -9,7 +9,7 @@
 
 use glam::{BVec3A, Mat4, Vec4};
 use raylume_geometry::{Interval, Ray, Vec3A, gamma};
-use raylume_intersect::{Intersect, ShearedRay, TriangleHit};
+use raylume_intersect::{Intersect, RayLanes, ShearedRay, TriangleHit};
 
 use super::leaf::{Filter, closest_in_leaf};
 use super::triangles::Leaf;
@@ -314,12 +314,25 @@ pub(super) fn occluded_by_shapes<P: Intersect>(
         let mut largest_end = Vec4::NEG_INFINITY;
         for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
             let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
-            for lane in set_bits(group.hits(near_plane, far_plane, Vec4::ZERO, lanes)) {
-                let i = 4 * g + lane as usize;
-                if shapes.iter().any(|p| p.occluded_canonical(&rays[i], t_max[i])) {
-                    occluded[i] = true;
-                    ends[i] = f32::NEG_INFINITY;
+            // Shape by shape for the group's rays in the box: each ray's answer is its own.
+            let in_box = group.boxes.hits(near_plane, far_plane, Vec4::ZERO, lanes);
+            let mut live = in_box;
+            for p in shapes {
+                if live == 0 {
+                    break;
                 }
+                let roots = p.lane_roots(&group.lanes, Vec4::ZERO, lanes);
+                let mut hit = live & roots.hit;
+                for lane in set_bits(live & roots.undecided) {
+                    let i = 4 * g + lane as usize;
+                    hit |= (p.occluded_canonical(&rays[i], t_max[i]) as u32) << lane;
+                }
+                live &= !hit;
+            }
+            for lane in set_bits(in_box & !live) {
+                let i = 4 * g + lane as usize;
+                occluded[i] = true;
+                ends[i] = f32::NEG_INFINITY;
             }
             largest_end = largest_end.max(Vec4::from_slice(&ends[4 * g..4 * g + 4]));
         }
@@ -359,10 +372,25 @@ pub(super) fn closest_by_shapes<P: Intersect>(
         for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
             let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
             let reach = lanes + lanes.abs() * Vec4::splat(2.0 * gamma(3));
-            for lane in set_bits(group.hits(near_plane, far_plane, t_min_lanes, reach)) {
-                let i = 4 * g + lane as usize;
-                for k in first..first + count {
-                    if let Some(hit) = prims[k].intersect_canonical(&rays[i], Interval::new(t_min, ends[i])) {
+            let live = group.boxes.hits(near_plane, far_plane, t_min_lanes, reach);
+            if live == 0 {
+                largest_end = largest_end.max(lanes);
+                continue;
+            }
+            // Shape by shape for the group's rays in the box: each ray takes the shapes in the order
+            // it takes them alone, each within its range at that point.
+            for k in first..first + count {
+                let roots = prims[k].lane_roots(&group.lanes, t_min_lanes, Vec4::from_slice(&ends[4 * g..4 * g + 4]));
+                let t = roots.t.to_array();
+                for lane in set_bits(live & (roots.hit | roots.undecided)) {
+                    let i = 4 * g + lane as usize;
+                    let range = Interval::new(t_min, ends[i]);
+                    let hit = if roots.hit & (1 << lane) != 0 {
+                        prims[k].hit_at_root(&rays[i], t[lane as usize], range)
+                    } else {
+                        prims[k].intersect_canonical(&rays[i], range)
+                    };
+                    if let Some(hit) = hit {
                         ends[i] = hit.t;
                         PrimitiveHit::keep_closer(&mut hits[i], PrimitiveHit { hit, primitive: ids[k] });
                     }
@@ -379,11 +407,20 @@ pub(super) fn closest_by_shapes<P: Intersect>(
 /// The box-test groups of a packet's `rays` (one to [`PACKET`]). Those past the rays, never tested,
 /// repeat the first ray: each group is written once, with no clearing of the array first.
 #[inline(always)]
-fn ray_groups(rays: &[Ray]) -> [RayGroup; GROUPS] {
+fn ray_groups(rays: &[Ray]) -> [ShapeGroup; GROUPS] {
     std::array::from_fn(|g| {
         let group = rays.get(4 * g..).filter(|rest| !rest.is_empty()).unwrap_or(&rays[..1]);
-        RayGroup::new(&group[..group.len().min(4)]).0
+        let (boxes, dir) = RayGroup::new(&group[..group.len().min(4)]);
+        ShapeGroup { boxes, lanes: RayLanes { origin: boxes.origin, dir } }
     })
+}
+
+/// Four rays of a packet for the other shapes' tests: their box test and their lanes for the shapes
+/// that test four rays at once ([`Intersect::lane_roots`]).
+#[derive(Clone, Copy, Debug)]
+struct ShapeGroup {
+    boxes: RayGroup,
+    lanes: RayLanes,
 }
 
 /// The near and far planes, by the rays' signs `negative`, of the box around `boxes` (`[min, max]`

@@ -1,0 +1,204 @@
+//! Shapes tested by four rays at once, lane by lane, with the very operations of their one-ray
+//! routines in their order: each lane's answer is bit for bit the one its ray gets alone. Packets of
+//! coherent rays use them where several rays meet a shape's box.
+
+use glam::Vec4;
+use raylume_geometry::{Ray, Sphere, Vec3A};
+
+use crate::shapes::sphere_radius_in_range;
+
+/// Four canonical rays ([`Ray::is_canonical`]), lane by lane: their origins and directions by axis.
+#[derive(Clone, Copy, Debug)]
+pub struct RayLanes {
+    /// The origins' `x`, `y` and `z`, one lane per ray.
+    pub origin: [Vec4; 3],
+    /// The directions' `x`, `y` and `z`, one lane per ray.
+    pub dir: [Vec4; 3],
+}
+
+impl RayLanes {
+    /// The lanes of up to four rays; missing lanes repeat the first ray.
+    ///
+    /// ```
+    /// use raylume_geometry::{Ray, Vec3A};
+    /// use raylume_intersect::RayLanes;
+    /// let rays = [Ray::new(Vec3A::ZERO, Vec3A::X), Ray::new(Vec3A::ONE, -Vec3A::Z)];
+    /// let lanes = RayLanes::new(&rays);
+    /// assert_eq!(lanes.origin[0].to_array(), [0.0, 1.0, 0.0, 0.0]);
+    /// assert_eq!(lanes.dir[2].to_array(), [0.0, -1.0, 0.0, 0.0]);
+    /// ```
+    #[inline(always)]
+    pub fn new(rays: &[Ray]) -> Self {
+        let lane = |i: usize| rays.get(i).unwrap_or(&rays[0]);
+        let by_axis = |v: fn(&Ray) -> Vec3A| {
+            let (a, b, c, d) = (v(lane(0)), v(lane(1)), v(lane(2)), v(lane(3)));
+            [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
+        };
+        Self { origin: by_axis(|r| r.origin), dir: by_axis(|r| r.dir) }
+    }
+}
+
+/// What a shape's one-ray routine finds for each of four rays: the lanes `hit` whose ray meets it at
+/// `t` (in that lane), and the lanes `undecided` that only the one-ray routine decides (sizes beyond
+/// f32's squares); every other lane misses.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneRoots {
+    /// The distance of each hit lane's root.
+    pub t: Vec4,
+    /// Bit `l`: lane `l`'s ray meets the shape at `t[l]`.
+    pub hit: u32,
+    /// Bit `l`: lane `l`'s ray is left to the one-ray routine.
+    pub undecided: u32,
+}
+
+/// The first root of `sphere` for each canonical ray of `rays` within its range `[min, max]`
+/// (lane by lane), as [`Intersect::intersect_canonical`](crate::Intersect::intersect_canonical) and
+/// [`Intersect::occluded_canonical`](crate::Intersect::occluded_canonical) find it for that ray alone
+/// (the occlusion test's range is `[0, t_max]`). Every lane is undecided for a radius outside the range
+/// the f32 routine takes. [`Intersect::hit_at_root`](crate::Intersect::hit_at_root) makes a hit lane's
+/// [`Hit`](crate::Hit).
+///
+/// ```
+/// use glam::Vec4;
+/// use raylume_geometry::{Interval, Ray, Sphere, Vec3A};
+/// use raylume_intersect::{Intersect, RayLanes, sphere_roots};
+/// let sphere = Sphere { center: Vec3A::new(0.0, 0.0, -5.0), radius: 1.0 };
+/// let rays = [Ray::new(Vec3A::ZERO, -Vec3A::Z), Ray::new(Vec3A::X * 3.0, -Vec3A::Z)];
+/// let roots = sphere_roots(&sphere, &RayLanes::new(&rays), Vec4::ZERO, Vec4::INFINITY);
+/// assert_eq!(roots.hit & 0b11, 0b01);
+/// assert_eq!(roots.t.x, sphere.intersect_canonical(&rays[0], Interval::POSITIVE).unwrap().t);
+/// ```
+#[inline(always)]
+pub fn sphere_roots(sphere: &Sphere, rays: &RayLanes, min: Vec4, max: Vec4) -> LaneRoots {
+    let (center, radius) = (sphere.center, sphere.radius);
+    if !sphere_radius_in_range(radius) {
+        return LaneRoots { t: Vec4::ZERO, hit: 0, undecided: 0b1111 };
+    }
+    let [ox, oy, oz] = rays.origin;
+    let [dx, dy, dz] = rays.dir;
+    let (fx, fy, fz) = (ox - Vec4::splat(center.x), oy - Vec4::splat(center.y), oz - Vec4::splat(center.z));
+    // `dot` as glam forms it: (x x' + y y') + z z'.
+    let a = dx * dx + dy * dy + dz * dz;
+    let half_b = fx * dx + fy * dy + fz * dz;
+    let r2 = radius as f64 * radius as f64;
+    let c = Vec4::from_array(sq64([fx, fy, fz]).map(|s| (s - r2) as f32));
+    // From outside, moving away: a miss before the discriminant.
+    let leaving = c.cmpgt(Vec4::ZERO) & half_b.cmpgt(Vec4::ZERO) & c.cmplt(Vec4::INFINITY);
+    let s = half_b / a;
+    let closest = [fx - dx * s, fy - dy * s, fz - dz * s];
+    let disc = a * Vec4::from_array(sq64(closest).map(|q| (r2 - q) as f32));
+    // Not NaN and not negative.
+    let real = disc.cmpge(Vec4::ZERO);
+    let wide = disc.cmpeq(Vec4::INFINITY) | c.abs().cmpeq(Vec4::INFINITY);
+    let q = -(half_b + disc.sqrt().copysign(half_b));
+    let (t0, t1) = (c / q, q / a);
+    let ordered = t0.cmple(t1);
+    let (t0, t1) = (Vec4::select(ordered, t0, t1), Vec4::select(ordered, t1, t0));
+    let last = Vec4::select(max.cmpeq(Vec4::INFINITY), Vec4::splat(f32::MAX), max);
+    let ahead = |t: Vec4| t.cmpgt(Vec4::ZERO) & t.cmpge(min) & t.cmple(last);
+    let (first, second) = (ahead(t0), ahead(t1));
+    let t = Vec4::select(first, t0, t1);
+    let considered = (!leaving).bitmask() & real.bitmask();
+    let undecided = considered & wide.bitmask();
+    LaneRoots { t, hit: considered & !undecided & (first | second).bitmask(), undecided }
+}
+
+/// `|v|^2` of each lane in f64 (each square exact), summed as the one-ray routine sums it.
+#[inline(always)]
+fn sq64([x, y, z]: [Vec4; 3]) -> [f64; 4] {
+    let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
+    [0, 1, 2, 3].map(|l| {
+        let (x, y, z) = (x[l] as f64, y[l] as f64, z[l] as f64);
+        x * x + y * y + z * z
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+    use raylume_geometry::Interval;
+
+    use super::*;
+    use crate::Intersect;
+
+    /// A coordinate at one of several scales, often near the sphere.
+    fn arb_scale() -> impl Strategy<Value = f32> {
+        prop_oneof![Just(1.0f32), Just(1e-6), Just(1e-3), Just(1e3), Just(1e6), Just(1e-16), Just(1e16)]
+    }
+
+    fn arb_v(range: f32) -> impl Strategy<Value = Vec3A> {
+        prop::array::uniform3(-range..range).prop_map(Vec3A::from_array)
+    }
+
+    /// The bits of a hit: its distance, point, normal and error.
+    fn bits(h: Option<crate::Hit>) -> Option<[u32; 10]> {
+        h.map(|h| {
+            let [px, py, pz] = h.point.to_array().map(f32::to_bits);
+            let [nx, ny, nz] = h.normal.to_array().map(f32::to_bits);
+            let [ex, ey, ez] = h.error.to_array().map(f32::to_bits);
+            [h.t.to_bits(), px, py, pz, nx, ny, nz, ex, ey, ez]
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// Each lane's root, and the hit made from it, is the one-ray routine's, bit for bit, for
+        /// closest-hit ranges and occlusion ranges: rays from inside and outside, grazing, leaving,
+        /// starting on the surface, at scales from 1e-16 to 1e16 (radii beyond the f32 routine's range
+        /// are left undecided).
+        #[test]
+        fn lanes_answer_as_each_ray_alone(
+            scale in arb_scale(),
+            centre in arb_v(4.0),
+            radius in 0.05f32..3.0,
+            rays in prop::collection::vec((arb_v(8.0), arb_v(1.0), 0usize..4), 4),
+            min in prop_oneof![Just(0.0f32), 0.0f32..4.0],
+            max in prop_oneof![Just(f32::INFINITY), 0.0f32..20.0],
+        ) {
+            let sphere = Sphere { center: centre * scale, radius: radius * scale };
+            let rays: Vec<Ray> = rays
+                .iter()
+                .filter_map(|&(o, d, kind)| {
+                    let o = match kind {
+                        // On the surface, and inside.
+                        0 => sphere.center + (o.try_normalize()? * sphere.radius),
+                        1 => sphere.center + o * 0.1 * sphere.radius,
+                        _ => o * scale,
+                    };
+                    // Aimed at the sphere, or not.
+                    let d = if kind == 3 { sphere.center + d * sphere.radius - o } else { d };
+                    Ray::new(o, d).canonical().map(|(r, _)| r)
+                })
+                .collect();
+            prop_assume!(!rays.is_empty());
+            let lanes = RayLanes::new(&rays);
+            let (min, max) = (min * scale, max * scale);
+            let roots = sphere_roots(&sphere, &lanes, Vec4::splat(min), Vec4::splat(max));
+            let occluding = sphere_roots(&sphere, &lanes, Vec4::ZERO, Vec4::splat(max));
+            for (l, ray) in rays.iter().enumerate() {
+                let range = Interval::new(min, max);
+                let expected = sphere.intersect_canonical(ray, range);
+                if roots.undecided & (1 << l) == 0 {
+                    let got = (roots.hit & (1 << l) != 0)
+                        .then(|| sphere.hit_at_root(ray, roots.t.to_array()[l], range))
+                        .flatten();
+                    prop_assert_eq!(bits(got), bits(expected), "lane {} of {:?}", l, ray);
+                }
+                if occluding.undecided & (1 << l) == 0 {
+                    prop_assert_eq!(occluding.hit & (1 << l) != 0, sphere.occluded_canonical(ray, max), "lane {}", l);
+                }
+            }
+        }
+    }
+
+    /// Radii beyond the f32 routine's range leave every lane to the one-ray routine.
+    #[test]
+    fn radii_beyond_f32_squares_are_undecided() {
+        let rays = [Ray::new(Vec3A::ZERO, Vec3A::new(0.0, 0.0, -0.75))];
+        for radius in [1e-16f32, 1e16] {
+            let sphere = Sphere { center: Vec3A::new(0.0, 0.0, -3.0 * radius), radius };
+            let roots = sphere_roots(&sphere, &RayLanes::new(&rays), Vec4::ZERO, Vec4::INFINITY);
+            assert_eq!((roots.hit, roots.undecided), (0, 0b1111));
+        }
+    }
+}
