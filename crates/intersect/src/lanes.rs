@@ -2,7 +2,7 @@
 //! routines in their order: each lane's answer is bit for bit the one its ray gets alone. Packets of
 //! coherent rays use them where several rays meet a shape's box.
 
-use glam::Vec4;
+use glam::{DVec4, Vec4};
 use raylume_geometry::{Ray, Sphere, Vec3A};
 
 use crate::shapes::sphere_radius_in_range;
@@ -70,23 +70,103 @@ pub struct LaneRoots {
 /// ```
 #[inline(always)]
 pub fn sphere_roots(sphere: &Sphere, rays: &RayLanes, min: Vec4, max: Vec4) -> LaneRoots {
-    let (center, radius) = (sphere.center, sphere.radius);
-    if !sphere_radius_in_range(radius) {
+    if !sphere_radius_in_range(sphere.radius) {
         return LaneRoots { t: Vec4::ZERO, hit: 0, undecided: 0b1111 };
     }
-    let [ox, oy, oz] = rays.origin;
-    let [dx, dy, dz] = rays.dir;
-    let (fx, fy, fz) = (ox - Vec4::splat(center.x), oy - Vec4::splat(center.y), oz - Vec4::splat(center.z));
+    let c = sphere.center;
+    let center = [Vec4::splat(c.x), Vec4::splat(c.y), Vec4::splat(c.z)];
+    roots(rays.origin, rays.dir, center, Vec4::splat(sphere.radius), min, max)
+}
+
+/// Up to four spheres, lane by lane, for one ray to test them all at once ([`spheres_roots`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SphereLanes {
+    /// The centres' `x`, `y` and `z`, one lane per sphere.
+    pub center: [Vec4; 3],
+    /// The radii.
+    pub radius: Vec4,
+    /// Bit `l`: lane `l` holds a sphere.
+    pub used: u32,
+}
+
+impl SphereLanes {
+    /// The lanes of the first four of `spheres`.
+    ///
+    /// ```
+    /// use raylume_geometry::{Sphere, Vec3A};
+    /// use raylume_intersect::SphereLanes;
+    /// let lanes = SphereLanes::new(&[Sphere { center: Vec3A::X, radius: 0.5 }]);
+    /// assert_eq!((lanes.center[0].x, lanes.radius.x, lanes.used), (1.0, 0.5, 0b1));
+    /// ```
+    pub fn new(spheres: &[Sphere]) -> Self {
+        let spheres = &spheres[..spheres.len().min(4)];
+        let lane = |f: fn(&Sphere) -> f32| {
+            let mut v = [0.0; 4];
+            for (x, s) in v.iter_mut().zip(spheres) {
+                *x = f(s);
+            }
+            Vec4::from_array(v)
+        };
+        Self {
+            center: [lane(|s| s.center.x), lane(|s| s.center.y), lane(|s| s.center.z)],
+            radius: lane(|s| s.radius),
+            used: (1 << spheres.len()) - 1,
+        }
+    }
+}
+
+/// The first root of each sphere of `spheres` for the canonical `ray` within `[min, max]`, lane by
+/// lane, as [`Intersect::intersect_canonical`](crate::Intersect::intersect_canonical) and
+/// [`Intersect::occluded_canonical`](crate::Intersect::occluded_canonical) find it for that sphere
+/// alone; a sphere whose radius the f32 routine does not take is undecided. Lanes without a sphere
+/// are neither hit nor undecided.
+///
+/// ```
+/// use raylume_geometry::{Interval, Ray, Sphere, Vec3A};
+/// use raylume_intersect::{Intersect, SphereLanes, spheres_roots};
+/// let spheres = [
+///     Sphere { center: Vec3A::new(0.0, 0.0, -5.0), radius: 1.0 },
+///     Sphere { center: Vec3A::new(3.0, 0.0, -5.0), radius: 1.0 },
+/// ];
+/// let ray = Ray::new(Vec3A::ZERO, -Vec3A::Z);
+/// let roots = spheres_roots(&SphereLanes::new(&spheres), &ray, 0.0, f32::INFINITY);
+/// assert_eq!((roots.hit, roots.undecided), (0b01, 0));
+/// assert_eq!(roots.t.x, spheres[0].intersect_canonical(&ray, Interval::POSITIVE).unwrap().t);
+/// ```
+#[inline(always)]
+pub fn spheres_roots(spheres: &SphereLanes, ray: &Ray, min: f32, max: f32) -> LaneRoots {
+    let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+    let r = spheres.radius;
+    let LaneRoots { t, hit, undecided } =
+        roots(splat(ray.origin), splat(ray.dir), spheres.center, r, Vec4::splat(min), Vec4::splat(max));
+    // The radii the f32 routine takes (`sphere_radius_in_range`), lane by lane.
+    let in_range = (r.cmpge(Vec4::splat(1e-15)) & r.cmple(Vec4::splat(1e15))).bitmask();
+    let used = spheres.used;
+    LaneRoots { t, hit: hit & in_range & used, undecided: (undecided | !in_range) & used }
+}
+
+/// The one-ray routine's roots (`sphere_root` in f32, with the squares that cancel in f64), lane by
+/// lane: rays from `origin` along `dir` on spheres of `center` and `radius`, within `[min, max]`.
+#[inline(always)]
+fn roots(
+    [ox, oy, oz]: [Vec4; 3],
+    [dx, dy, dz]: [Vec4; 3],
+    [cx, cy, cz]: [Vec4; 3],
+    radius: Vec4,
+    min: Vec4,
+    max: Vec4,
+) -> LaneRoots {
+    let (fx, fy, fz) = (ox - cx, oy - cy, oz - cz);
     // `dot` as glam forms it: (x x' + y y') + z z'.
     let a = dx * dx + dy * dy + dz * dz;
     let half_b = fx * dx + fy * dy + fz * dz;
-    let r2 = radius as f64 * radius as f64;
-    let c = Vec4::from_array(sq64([fx, fy, fz]).map(|s| (s - r2) as f32));
+    let r = radius.as_dvec4();
+    let r2 = r * r;
+    let c = (sq64([fx, fy, fz]) - r2).as_vec4();
     // From outside, moving away: a miss before the discriminant.
     let leaving = c.cmpgt(Vec4::ZERO) & half_b.cmpgt(Vec4::ZERO) & c.cmplt(Vec4::INFINITY);
     let s = half_b / a;
-    let closest = [fx - dx * s, fy - dy * s, fz - dz * s];
-    let disc = a * Vec4::from_array(sq64(closest).map(|q| (r2 - q) as f32));
+    let disc = a * (r2 - sq64([fx - dx * s, fy - dy * s, fz - dz * s])).as_vec4();
     // Not NaN and not negative.
     let real = disc.cmpge(Vec4::ZERO);
     let wide = disc.cmpeq(Vec4::INFINITY) | c.abs().cmpeq(Vec4::INFINITY);
@@ -105,12 +185,9 @@ pub fn sphere_roots(sphere: &Sphere, rays: &RayLanes, min: Vec4, max: Vec4) -> L
 
 /// `|v|^2` of each lane in f64 (each square exact), summed as the one-ray routine sums it.
 #[inline(always)]
-fn sq64([x, y, z]: [Vec4; 3]) -> [f64; 4] {
-    let (x, y, z) = (x.to_array(), y.to_array(), z.to_array());
-    [0, 1, 2, 3].map(|l| {
-        let (x, y, z) = (x[l] as f64, y[l] as f64, z[l] as f64);
-        x * x + y * y + z * z
-    })
+fn sq64([x, y, z]: [Vec4; 3]) -> DVec4 {
+    let (x, y, z) = (x.as_dvec4(), y.as_dvec4(), z.as_dvec4());
+    x * x + y * y + z * z
 }
 
 #[cfg(test)]
@@ -186,6 +263,54 @@ mod tests {
                 }
                 if occluding.undecided & (1 << l) == 0 {
                     prop_assert_eq!(occluding.hit & (1 << l) != 0, sphere.occluded_canonical(ray, max), "lane {}", l);
+                }
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// One ray's roots on four spheres at once are each sphere's own, bit for bit (the hit made
+        /// from each too), for closest-hit and occlusion ranges, one to four spheres, at scales from
+        /// 1e-16 to 1e16, the ray starting on or inside one of them; radii beyond the f32 routine's
+        /// range are undecided, lanes without a sphere neither hit nor undecided.
+        #[test]
+        fn one_ray_answers_four_spheres_as_each_alone(
+            scale in arb_scale(),
+            spheres in prop::collection::vec((arb_v(4.0), prop_oneof![0.05f32..3.0, Just(1e-17f32), Just(1e17f32)]), 1..=4),
+            (o, d, kind) in (arb_v(8.0), arb_v(1.0), 0usize..4),
+            min in prop_oneof![Just(0.0f32), 0.0f32..4.0],
+            max in prop_oneof![Just(f32::INFINITY), 0.0f32..20.0],
+        ) {
+            let spheres: Vec<Sphere> =
+                spheres.iter().map(|&(c, r)| Sphere { center: c * scale, radius: r * scale }).collect();
+            let s0 = spheres[0];
+            let o = match kind {
+                0 => match o.try_normalize() { Some(n) => s0.center + n * s0.radius, None => o * scale },
+                1 => s0.center + o * 0.1 * s0.radius,
+                _ => o * scale,
+            };
+            let d = if kind == 3 { s0.center + d * s0.radius - o } else { d };
+            let Some((ray, _)) = Ray::new(o, d).canonical() else { return Ok(()) };
+            let lanes = SphereLanes::new(&spheres);
+            let (min, max) = (min * scale, max * scale);
+            let roots = spheres_roots(&lanes, &ray, min, max);
+            let occluding = spheres_roots(&lanes, &ray, 0.0, max);
+            prop_assert_eq!((roots.hit | roots.undecided) >> spheres.len(), 0);
+            for (l, sphere) in spheres.iter().enumerate() {
+                let range = Interval::new(min, max);
+                let in_range = (1e-15..=1e15).contains(&sphere.radius);
+                prop_assert_eq!(roots.undecided & (1 << l) != 0, !in_range || roots.undecided & (1 << l) != 0);
+                if roots.undecided & (1 << l) == 0 {
+                    let got = (roots.hit & (1 << l) != 0)
+                        .then(|| sphere.hit_at_root(&ray, roots.t.to_array()[l], range))
+                        .flatten();
+                    prop_assert_eq!(bits(got), bits(sphere.intersect_canonical(&ray, range)), "sphere {}", l);
+                } else {
+                    prop_assert!(!in_range || roots.hit & (1 << l) == 0);
+                }
+                if occluding.undecided & (1 << l) == 0 {
+                    prop_assert_eq!(occluding.hit & (1 << l) != 0, sphere.occluded_canonical(&ray, max), "sphere {}", l);
                 }
             }
         }

@@ -16,9 +16,9 @@ mod shapes;
 mod watertight;
 
 use glam::Vec4;
-pub use lanes::{LaneRoots, RayLanes, sphere_roots};
+pub use lanes::{LaneRoots, RayLanes, SphereLanes, sphere_roots, spheres_roots};
 pub use primitive::Primitive;
-use raylume_geometry::{Aabb, Interval, Ray, Triangle, Vec2, Vec3A};
+use raylume_geometry::{Aabb, Interval, Ray, Sphere, Triangle, Vec2, Vec3A};
 pub use shapes::intersect_moller_trumbore;
 pub use watertight::{
     ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit, decided_distance, edge_error, has_unit_normal,
@@ -111,6 +111,13 @@ pub trait Intersect {
     /// test them with [`watertight_decide`], which gives the same answers as [`Intersect::intersect`].
     #[inline]
     fn as_triangle(&self) -> Option<Triangle> {
+        None
+    }
+
+    /// The shape as a sphere, if it is one: accelerators test up to four spheres at once for one ray
+    /// ([`spheres_roots`]), which gives the same answers as [`Intersect::intersect_canonical`].
+    #[inline]
+    fn as_sphere(&self) -> Option<Sphere> {
         None
     }
 }

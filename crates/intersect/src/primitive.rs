@@ -81,6 +81,14 @@ impl Intersect for Primitive {
             _ => None,
         }
     }
+
+    #[inline]
+    fn as_sphere(&self) -> Option<Sphere> {
+        match self {
+            Primitive::Sphere(s) => Some(*s),
+            _ => None,
+        }
+    }
 }
 
 impl Primitive {

@@ -74,6 +74,11 @@ impl Intersect for Sphere {
         sphere_hit_at(self.center, self.radius, ray, t)
     }
 
+    #[inline]
+    fn as_sphere(&self) -> Option<Sphere> {
+        Some(*self)
+    }
+
     fn bounds(&self) -> Aabb {
         let (c, r) = (v64(self.center), self.radius as f64);
         Aabb::from_f64([0, 1, 2].map(|k| c[k] - r), [0, 1, 2].map(|k| c[k] + r))

@@ -135,8 +135,8 @@ impl FewShapes {
         frustum.intersect(&self.0, t_min, t_max).1 != 0
     }
 
-    /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]`, tried in slot
-    /// order.
+    /// Whether `test(slot)` holds for a shape whose box the ray meets within `[0, t_max]` (up to the few
+    /// ulps past it that a walk reaches), tried in slot order.
     #[inline(always)]
     pub fn any(&self, ray: &Ray, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
         self.any_prepared(&BoxRay::new(ray), t_max, test)
@@ -145,7 +145,7 @@ impl FewShapes {
     /// [`FewShapes::any`] for a ray prepared once for many nodes.
     #[inline(always)]
     pub fn any_prepared(&self, ray: &BoxRay, t_max: f32, test: impl FnMut(usize) -> bool) -> bool {
-        let (_, mask) = ray.intersect(&self.0, 0.0, t_max);
+        let (_, mask) = ray.intersect(&self.0, 0.0, reach(t_max));
         set_bits(mask).map(|slot| slot as usize).any(test)
     }
 }
