@@ -232,43 +232,56 @@ impl<'a, K: Copy> Rays<'a, K> {
         let t_min_lanes = Vec4::splat(t_min);
         let mut largest = Vec4::NEG_INFINITY;
         let groups = self.rays.len().div_ceil(4);
-        // Blocks of two groups: eight rays.
-        for b in 0..groups.div_ceil(2) {
-            let mut lanes = 0;
-            for g in 2 * b..(2 * b + 2).min(groups) {
-                // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
-                let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
-                let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
-                lanes |= self.groups[g].boxes.hits(near_plane, far_plane, t_min_lanes, ends) << (4 * (g - 2 * b));
-            }
-            let base = 8 * b;
-            // Together when the block has at least as many rays in the box as the leaf has triangles:
-            // each triangle is then tested once for all of them, where each ray would test every one.
-            if R::BLOCKS
-                && lanes.count_ones() as usize >= count
-                && let Some(axes) = shared_axes(&self.sheared[base..base + 8], lanes)
-            {
-                let block = Block {
-                    lanes,
-                    axes,
-                    groups: &self.groups[2 * b..2 * b + 2],
-                    sheared: &self.sheared[base..base + 8],
-                    t_max: &mut self.t_max[base..base + 8],
-                    kept: &mut self.kept[base..base + 8],
-                };
-                test.test_block(block, first, count);
-            } else {
-                for lane in set_bits(lanes) {
-                    let i = base + lane as usize;
-                    self.t_max[i] = test.test(&mut self.kept[i], first, count, &self.sheared[i], self.t_max[i]);
+        // The rays in the box: bit `i` for ray `i`.
+        let mut in_box = 0u64;
+        for g in 0..groups {
+            // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
+            let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
+            let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
+            in_box |= (self.groups[g].boxes.hits(near_plane, far_plane, t_min_lanes, ends) as u64) << (4 * g);
+        }
+        if R::BLOCKS {
+            // Blocks of eight rays with at least as many in the box as the leaf has triangles, sharing
+            // their frame's axes, test each triangle once for all of them, where each ray would test
+            // every one.
+            for b in 0..groups.div_ceil(2) {
+                let (base, lanes) = (8 * b, (in_box >> (8 * b)) as u32 & 0xFF);
+                if lanes.count_ones() as usize >= count
+                    && let Some(axes) = shared_axes(&self.sheared[base..base + 8], lanes)
+                {
+                    let block = Block {
+                        lanes,
+                        axes,
+                        groups: &self.groups[2 * b..2 * b + 2],
+                        sheared: &self.sheared[base..base + 8],
+                        t_max: &mut self.t_max[base..base + 8],
+                        kept: &mut self.kept[base..base + 8],
+                    };
+                    test.test_block(block, first, count);
+                    in_box &= !((lanes as u64) << base);
                 }
             }
-            for g in 2 * b..(2 * b + 2).min(groups) {
-                largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
-            }
+        }
+        for i in set_bits64(in_box) {
+            self.t_max[i] = test.test(&mut self.kept[i], first, count, &self.sheared[i], self.t_max[i]);
+        }
+        for g in 0..groups {
+            largest = largest.max(Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]));
         }
         largest.max_element()
     }
+}
+
+/// The indices of the set bits of `mask`, lowest first.
+#[inline(always)]
+fn set_bits64(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let bit = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            bit
+        })
+    })
 }
 
 /// The axes of the frames of the rays `lanes` among `frames`, if they all share them.
