@@ -10,7 +10,9 @@ use glam::Vec4;
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
-use std::arch::x86_64::{__m256, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ};
+use std::arch::x86_64::{
+    __m128, __m256, __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ,
+};
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
@@ -678,15 +680,7 @@ fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: 
             let ny = avx._mm256_sub_pd(avx._mm256_mul_pd(e1z, e2x), avx._mm256_mul_pd(e1x, e2z));
             let nz = avx._mm256_sub_pd(avx._mm256_mul_pd(e1x, e2y), avx._mm256_mul_pd(e1y, e2x));
             let (qx, qy, qz) = (avx._mm256_sub_pd(p0x, ox), avx._mm256_sub_pd(p0y, oy), avx._mm256_sub_pd(p0z, oz));
-            let den = avx._mm256_add_pd(
-                avx._mm256_add_pd(avx._mm256_mul_pd(nx, dx), avx._mm256_mul_pd(ny, dy)),
-                avx._mm256_mul_pd(nz, dz),
-            );
-            let num = avx._mm256_add_pd(
-                avx._mm256_add_pd(avx._mm256_mul_pd(nx, qx), avx._mm256_mul_pd(ny, qy)),
-                avx._mm256_mul_pd(nz, qz),
-            );
-            avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
+            plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
         }};
     }
     let none = simd.sse._mm_setzero_ps();
@@ -694,6 +688,33 @@ fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: 
         if lanes & 0xF0 != 0 { distance!(1) } else { none },
         if lanes & 0x0F != 0 { distance!(0) } else { none },
     );
+    finite_or(simd, plane, t)
+}
+
+/// `(n . q) / (n . d)` in f64, four lanes, rounded to f32: the distance along `d` to the plane of normal
+/// `n` through the point `q` away, with `plane_distance64`'s operations in its order.
+#[inline(always)]
+fn plane_distance(
+    avx: pulp::core_arch::x86::Avx,
+    [nx, ny, nz]: [__m256d; 3],
+    [qx, qy, qz]: [__m256d; 3],
+    [dx, dy, dz]: [__m256d; 3],
+) -> __m128 {
+    let den = avx._mm256_add_pd(
+        avx._mm256_add_pd(avx._mm256_mul_pd(nx, dx), avx._mm256_mul_pd(ny, dy)),
+        avx._mm256_mul_pd(nz, dz),
+    );
+    let num = avx._mm256_add_pd(
+        avx._mm256_add_pd(avx._mm256_mul_pd(nx, qx), avx._mm256_mul_pd(ny, qy)),
+        avx._mm256_mul_pd(nz, qz),
+    );
+    avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
+}
+
+/// Each lane's `plane` distance where it is finite, else its f32 distance `t`.
+#[inline(always)]
+fn finite_or(simd: V3, plane: __m256, t: __m256) -> __m256 {
+    let avx = simd.avx;
     let finite = avx._mm256_cmp_ps::<_CMP_LT_OQ>(
         avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), plane),
         avx._mm256_set1_ps(f32::INFINITY),
@@ -830,6 +851,21 @@ impl BlockFrame {
         let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (sheared!(0), sheared!(1), sheared!(2));
         edge_functions(self.simd, [ax, bx, cx], [ay, by, cy], [az, bz, cz])
     }
+
+    /// The edges and the [`Verdict`] of triangle `j` of `leaf` for the rays `lanes`, each within
+    /// `[min, t_max]` (lane by lane); `None` where no ray is a candidate.
+    #[inline(always)]
+    fn verdict(&self, leaf: &Leaf, j: usize, lanes: u32, min: __m256, t_max: &[f32]) -> Option<(Edges, Verdict)> {
+        let e = self.edges(leaf, j);
+        let candidates = lanes & !rejected_lanes(self.simd, &e);
+        if candidates == 0 {
+            return None;
+        }
+        let mut ends = [0.0; 8];
+        ends.copy_from_slice(&t_max[..8]);
+        let v = verdict_lanes(self.simd, &e, candidates, self.shear[2], min, pulp::cast(ends));
+        Some((e, v))
+    }
 }
 
 /// The eight lanes of two groups' four.
@@ -865,15 +901,7 @@ fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGro
                 avx._mm256_sub_pd(pz, wide!(group.boxes.origin[2])),
             );
             let (dx, dy, dz) = (wide!(group.dir[0]), wide!(group.dir[1]), wide!(group.dir[2]));
-            let den = avx._mm256_add_pd(
-                avx._mm256_add_pd(avx._mm256_mul_pd(nx, dx), avx._mm256_mul_pd(ny, dy)),
-                avx._mm256_mul_pd(nz, dz),
-            );
-            let num = avx._mm256_add_pd(
-                avx._mm256_add_pd(avx._mm256_mul_pd(nx, qx), avx._mm256_mul_pd(ny, qy)),
-                avx._mm256_mul_pd(nz, qz),
-            );
-            avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
+            plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
         }};
     }
     let none = simd.sse._mm_setzero_ps();
@@ -881,11 +909,7 @@ fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGro
         if lanes & 0xF0 != 0 { distance!(1) } else { none },
         if lanes & 0x0F != 0 { distance!(0) } else { none },
     );
-    let finite = avx._mm256_cmp_ps::<_CMP_LT_OQ>(
-        avx._mm256_andnot_ps(avx._mm256_set1_ps(-0.0), plane),
-        avx._mm256_set1_ps(f32::INFINITY),
-    );
-    avx._mm256_blendv_ps(t, plane, finite)
+    finite_or(simd, plane, t)
 }
 
 /// [`Filter::closest_in_block`]: each triangle of the leaf in turn for all the block's rays at once, its
@@ -920,15 +944,9 @@ impl Exact for ClosestBlock<'_, '_> {
         let frame = BlockFrame::new(simd, groups, axes);
         let min = avx._mm256_set1_ps(t_min);
         for j in 0..count {
-            let e = frame.edges(leaf, j);
-            let candidates = lanes & !rejected_lanes(simd, &e);
-            if candidates == 0 {
+            let Some((e, Verdict { hit, open, t, delta_t, inv })) = frame.verdict(leaf, j, lanes, min, t_max) else {
                 continue;
-            }
-            let mut ends = [0.0; 8];
-            ends.copy_from_slice(&t_max[..8]);
-            let Verdict { hit, open, t, delta_t, inv } =
-                verdict_lanes(simd, &e, candidates, frame.shear[2], min, pulp::cast(ends));
+            };
             if hit | open == 0 {
                 continue;
             }
@@ -983,14 +1001,9 @@ impl Exact for OccludedBlock<'_, '_> {
         let zero = simd.avx._mm256_setzero_ps();
         let mut active = lanes;
         for j in 0..count {
-            let e = frame.edges(leaf, j);
-            let candidates = active & !rejected_lanes(simd, &e);
-            if candidates == 0 {
+            let Some((_, Verdict { hit, open, .. })) = frame.verdict(leaf, j, active, zero, t_max) else {
                 continue;
-            }
-            let mut ends = [0.0; 8];
-            ends.copy_from_slice(&t_max[..8]);
-            let Verdict { hit, open, .. } = verdict_lanes(simd, &e, candidates, frame.shear[2], zero, pulp::cast(ends));
+            };
             let mut occluded = hit;
             for lane in set_bits(open) {
                 let l = lane as usize;
