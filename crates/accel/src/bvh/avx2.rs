@@ -15,7 +15,7 @@ use std::arch::x86_64::{
 };
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
-use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, occluded_in_leaf};
+use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, exact_out_of_line, occluded_in_leaf};
 use super::stream::{Block, Found, FrameGroup, Leaves, PacketQuery, Report};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
@@ -795,12 +795,12 @@ impl Filter for V3 {
 
     #[inline(always)]
     fn closest_in_block(self, leaves: &[Leaf], (first, count): (usize, usize), t_min: f32, block: Block<Found>) {
-        closest_block(self, ClosestBlock { simd: self, leaves, first, count, t_min, block });
+        exact_out_of_line(self, ClosestBlock { simd: self, leaves, first, count, t_min, block });
     }
 
     #[inline(always)]
     fn occluded_in_block(self, leaf: &Leaf, count: usize, block: Block<bool>) {
-        occluded_block(self, OccludedBlock { simd: self, leaf, count, block });
+        exact_out_of_line(self, OccludedBlock { simd: self, leaf, count, block });
     }
 }
 
@@ -822,7 +822,7 @@ impl BlockFrame {
         Self {
             simd,
             axes,
-            origin: axes.map(|k| lanes(|g| &g.boxes.origin, k)),
+            origin: axes.map(|k| lanes(|g| &g.rays.lanes.origin, k)),
             shear: [0, 1, 2].map(|a| lanes(|g| &g.shear, a)),
         }
     }
@@ -896,11 +896,12 @@ fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGro
                 };
             }
             let (qx, qy, qz) = (
-                avx._mm256_sub_pd(px, wide!(group.boxes.origin[0])),
-                avx._mm256_sub_pd(py, wide!(group.boxes.origin[1])),
-                avx._mm256_sub_pd(pz, wide!(group.boxes.origin[2])),
+                avx._mm256_sub_pd(px, wide!(group.rays.lanes.origin[0])),
+                avx._mm256_sub_pd(py, wide!(group.rays.lanes.origin[1])),
+                avx._mm256_sub_pd(pz, wide!(group.rays.lanes.origin[2])),
             );
-            let (dx, dy, dz) = (wide!(group.dir[0]), wide!(group.dir[1]), wide!(group.dir[2]));
+            let [dx, dy, dz] = group.rays.lanes.dir;
+            let (dx, dy, dz) = (wide!(dx), wide!(dy), wide!(dz));
             plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
         }};
     }
@@ -924,12 +925,6 @@ struct ClosestBlock<'a, 'b> {
     count: usize,
     t_min: f32,
     block: Block<'b, Found>,
-}
-
-/// [`ClosestBlock`] out of line, as [`closest_of_candidates`] is.
-#[inline(never)]
-fn closest_block(simd: V3, test: ClosestBlock) {
-    simd.exact(test)
 }
 
 impl Exact for ClosestBlock<'_, '_> {
@@ -982,12 +977,6 @@ struct OccludedBlock<'a, 'b> {
     leaf: &'a Leaf,
     count: usize,
     block: Block<'b, bool>,
-}
-
-/// [`OccludedBlock`] out of line.
-#[inline(never)]
-fn occluded_block(simd: V3, test: OccludedBlock) {
-    simd.exact(test)
 }
 
 impl Exact for OccludedBlock<'_, '_> {

@@ -125,15 +125,16 @@ pub(super) fn closest_in_leaf<F: Filter>(
         range.max
     } else {
         let test = Candidates { leaf, leaves, first, lanes, ray, range, found };
-        closest_of_candidates(ClosestOfCandidates { filter, test, prepared: &prepared })
+        exact_out_of_line(filter, ClosestOfCandidates { filter, test, prepared: &prepared })
     }
 }
 
-/// [`closest_in_leaf`] of a leaf with candidates. Not inlined: the exact test's many live values would
-/// otherwise take the registers the walk keeps its ray in (docs/PERFORMANCE.md).
+/// An exact test of a leaf, compiled with `filter`'s target features ([`Filter::exact`]) and not
+/// inlined: the exact tests' many live values would otherwise take the registers the walk keeps its ray
+/// in (docs/PERFORMANCE.md).
 #[inline(never)]
-fn closest_of_candidates<F: Filter>(test: ClosestOfCandidates<F>) -> f32 {
-    test.filter.exact(test)
+pub(super) fn exact_out_of_line<F: Filter, E: Exact>(filter: F, test: E) -> E::Output {
+    filter.exact(test)
 }
 
 /// A closest-hit test of a leaf's candidates: the candidate `lanes` of `leaf` (leaf number `first`),
@@ -184,7 +185,8 @@ pub(super) fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
     range.max
 }
 
-/// [`closest_of_candidates`]' test, the filter that compiles it and what the filter formed of the leaf.
+/// [`closest_in_leaf`]'s test of a leaf with candidates, the filter that compiles it and what the filter
+/// formed of the leaf.
 struct ClosestOfCandidates<'a, F: Filter> {
     filter: F,
     test: Candidates<'a>,
@@ -209,16 +211,10 @@ pub(super) fn occluded_in_leaf<F: Filter>(
     ray: &ShearedRay,
     range: Interval,
 ) -> bool {
-    lanes != 0 && any_candidate_hit(filter, AnyCandidateHit { leaf, lanes, ray, range })
+    lanes != 0 && exact_out_of_line(filter, AnyCandidateHit { leaf, lanes, ray, range })
 }
 
-/// [`occluded_in_leaf`] of a leaf with candidates; not inlined, as [`closest_of_candidates`].
-#[inline(never)]
-fn any_candidate_hit<F: Filter>(filter: F, test: AnyCandidateHit) -> bool {
-    filter.exact(test)
-}
-
-/// The arguments of [`any_candidate_hit`].
+/// [`occluded_in_leaf`]'s test of a leaf with candidates.
 struct AnyCandidateHit<'a> {
     leaf: &'a Leaf,
     lanes: u32,

@@ -13,7 +13,7 @@ use raylume_intersect::{Intersect, RayLanes, ShearedRay, TriangleHit};
 
 use super::leaf::{Filter, closest_in_leaf};
 use super::triangles::Leaf;
-use super::wide::{Frustum, LeafTest, NodeTest, WIDEN, WideTree, crosses_every_slab, leaf_range, set_bits};
+use super::wide::{Frustum, LeafTest, NodeTest, WIDEN, WideTree, crosses_every_slab, leaf_range, set_bits, set_bits64};
 use crate::PrimitiveHit;
 
 /// Rays per packet.
@@ -68,26 +68,25 @@ pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
 /// [`BoxRay`](super::wide::BoxRay) gives that ray, with the same operations.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayGroup {
-    /// The origins by axis.
-    pub origin: [Vec4; 3],
+    /// The rays' origins and directions by axis, as the shapes that test four rays at once take them
+    /// ([`Intersect::lane_roots`]).
+    pub lanes: RayLanes,
     inv_near: [Vec4; 3],
     inv_far: [Vec4; 3],
 }
 
-/// Four rays of a packet for the triangles' tests, lane by lane: their box test ([`RayGroup`]), their
-/// directions by axis and their watertight frames' shears ([`ShearedRay::shear`]) by component.
+/// Four rays of a packet for the triangles' tests, lane by lane: their [`RayGroup`] and their
+/// watertight frames' shears ([`ShearedRay::shear`]) by component.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct FrameGroup {
-    pub boxes: RayGroup,
-    pub dir: [Vec4; 3],
+    pub rays: RayGroup,
     pub shear: [Vec4; 3],
 }
 
 impl RayGroup {
-    /// The group of `rays` (one to four; missing lanes repeat the first ray), and the rays'
-    /// directions by axis.
+    /// The group of `rays` (one to four; missing lanes repeat the first ray).
     #[inline(always)]
-    fn new(rays: &[Ray]) -> (Self, [Vec4; 3]) {
+    fn new(rays: &[Ray]) -> Self {
         let lane = |i: usize| rays.get(i).unwrap_or(&rays[0]);
         let (r0, r1, r2, r3) = (lane(0), lane(1), lane(2), lane(3));
         // Each axis's coordinates of the four rays in one register: a transpose.
@@ -98,12 +97,11 @@ impl RayGroup {
         let dir = by_axis(r0.dir, r1.dir, r2.dir, r3.dir);
         // `reciprocals` lane by lane.
         let inv_near = dir.map(|d| Vec4::ONE / d);
-        let group = Self {
-            origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin),
+        Self {
+            lanes: RayLanes { origin: by_axis(r0.origin, r1.origin, r2.origin, r3.origin), dir },
             inv_near,
             inv_far: inv_near.map(|inv| inv * WIDEN),
-        };
-        (group, dir)
+        }
     }
 
     /// The lanes whose ray meets the box with near planes `near` and far planes `far` (by the rays'
@@ -112,8 +110,8 @@ impl RayGroup {
     fn hits(&self, near_plane: [Vec4; 3], far_plane: [Vec4; 3], t_min: Vec4, t_max: Vec4) -> u32 {
         let (mut near, mut far) = (t_min, t_max);
         for a in 0..3 {
-            let tn = (near_plane[a] - self.origin[a]) * self.inv_near[a];
-            let tf = (far_plane[a] - self.origin[a]) * self.inv_far[a];
+            let tn = (near_plane[a] - self.lanes.origin[a]) * self.inv_near[a];
+            let tf = (far_plane[a] - self.lanes.origin[a]) * self.inv_far[a];
             near = tn.max(near);
             far = tf.min(far);
         }
@@ -203,13 +201,12 @@ impl<'a, K: Copy> Rays<'a, K> {
         // Groups past the rays, never tested, repeat the first ray: each group is written once.
         let groups = std::array::from_fn(|g| {
             let Some(rays) = rays.get(4 * g..).filter(|rest| !rest.is_empty()) else {
-                let (boxes, dir) = RayGroup::new(&rays[..1]);
-                return FrameGroup { boxes, dir, shear: [Vec4::ZERO; 3] };
+                return FrameGroup { rays: RayGroup::new(&rays[..1]), shear: [Vec4::ZERO; 3] };
             };
             let rays = &rays[..rays.len().min(4)];
-            let (boxes, dir) = RayGroup::new(rays);
-            let shear = sheared_frames(rays, dir, &mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
-            FrameGroup { boxes, dir, shear }
+            let group = RayGroup::new(rays);
+            let (frames, ends) = (&mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
+            FrameGroup { rays: group, shear: sheared_frames(rays, group.lanes.dir, frames, ends) }
         });
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
@@ -238,7 +235,7 @@ impl<'a, K: Copy> Rays<'a, K> {
             // A few ulps past each ray's closest hit, as the single-ray walk reaches (ties included).
             let ends = Vec4::from_slice(&self.t_max[4 * g..4 * g + 4]);
             let ends = ends + ends.abs() * Vec4::splat(2.0 * gamma(3));
-            in_box |= (self.groups[g].boxes.hits(near_plane, far_plane, t_min_lanes, ends) as u64) << (4 * g);
+            in_box |= (self.groups[g].rays.hits(near_plane, far_plane, t_min_lanes, ends) as u64) << (4 * g);
         }
         if R::BLOCKS {
             // Blocks of eight rays with at least as many in the box as the leaf has triangles, sharing
@@ -270,18 +267,6 @@ impl<'a, K: Copy> Rays<'a, K> {
         }
         largest.max_element()
     }
-}
-
-/// The indices of the set bits of `mask`, lowest first.
-#[inline(always)]
-fn set_bits64(mut mask: u64) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let bit = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            bit
-        })
-    })
 }
 
 /// The axes of the frames of the rays `lanes` among `frames`, if they all share them.
@@ -328,7 +313,7 @@ pub(super) fn occluded_by_shapes<P: Intersect>(
         for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
             let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
             // Shape by shape for the group's rays in the box: each ray's answer is its own.
-            let in_box = group.boxes.hits(near_plane, far_plane, Vec4::ZERO, lanes);
+            let in_box = group.hits(near_plane, far_plane, Vec4::ZERO, lanes);
             let mut live = in_box;
             for p in shapes {
                 if live == 0 {
@@ -385,7 +370,7 @@ pub(super) fn closest_by_shapes<P: Intersect>(
         for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
             let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
             let reach = lanes + lanes.abs() * Vec4::splat(2.0 * gamma(3));
-            let live = group.boxes.hits(near_plane, far_plane, t_min_lanes, reach);
+            let live = group.hits(near_plane, far_plane, t_min_lanes, reach);
             if live == 0 {
                 largest_end = largest_end.max(lanes);
                 continue;
@@ -420,20 +405,11 @@ pub(super) fn closest_by_shapes<P: Intersect>(
 /// The box-test groups of a packet's `rays` (one to [`PACKET`]). Those past the rays, never tested,
 /// repeat the first ray: each group is written once, with no clearing of the array first.
 #[inline(always)]
-fn ray_groups(rays: &[Ray]) -> [ShapeGroup; GROUPS] {
+fn ray_groups(rays: &[Ray]) -> [RayGroup; GROUPS] {
     std::array::from_fn(|g| {
         let group = rays.get(4 * g..).filter(|rest| !rest.is_empty()).unwrap_or(&rays[..1]);
-        let (boxes, dir) = RayGroup::new(&group[..group.len().min(4)]);
-        ShapeGroup { boxes, lanes: RayLanes { origin: boxes.origin, dir } }
+        RayGroup::new(&group[..group.len().min(4)])
     })
-}
-
-/// Four rays of a packet for the other shapes' tests: their box test and their lanes for the shapes
-/// that test four rays at once ([`Intersect::lane_roots`]).
-#[derive(Clone, Copy, Debug)]
-struct ShapeGroup {
-    boxes: RayGroup,
-    lanes: RayLanes,
 }
 
 /// The near and far planes, by the rays' signs `negative`, of the box around `boxes` (`[min, max]`
@@ -476,15 +452,9 @@ trait RayTest {
 
     fn test(&mut self, kept: &mut Self::Kept, first: usize, count: usize, sheared: &ShearedRay, t_max: f32) -> f32;
 
-    /// [`RayTest::test`] for each ray of `block`, each ray's `t_max` set to what it returns; one
-    /// ray at a time unless the test does better.
-    #[inline(always)]
-    fn test_block(&mut self, block: Block<Self::Kept>, first: usize, count: usize) {
-        for lane in set_bits(block.lanes) {
-            let l = lane as usize;
-            block.t_max[l] = self.test(&mut block.kept[l], first, count, &block.sheared[l], block.t_max[l]);
-        }
-    }
+    /// [`RayTest::test`] for each ray of `block` (with [`RayTest::BLOCKS`]), each ray's `t_max` set to
+    /// what it returns.
+    fn test_block(&mut self, block: Block<Self::Kept>, first: usize, count: usize);
 }
 
 /// The leaf test of a packet walk: the leaf's box for the packet's rays, then `test` for each ray in it.
@@ -754,7 +724,7 @@ pub(super) mod tests {
                     Ray::new(Vec3A::new(1.0, -2.0, 3.0), Vec3A::from_array(d))
                 })
                 .collect();
-            let (_, dir) = RayGroup::new(&rays);
+            let dir = RayGroup::new(&rays).lanes.dir;
             let (mut frames, mut ends) = ([NO_FRAME; 4], [1.0f32; 4]);
             sheared_frames(&rays, dir, &mut frames, &mut ends);
             for (i, ray) in rays.iter().enumerate() {

@@ -440,6 +440,19 @@ pub(super) fn set_bits(mut mask: u32) -> impl Iterator<Item = u32> {
     })
 }
 
+/// [`set_bits`] of a mask of up to 64 bits (a packet's rays), as indices. (`set_bits` keeps its own
+/// loop on 32 bits: through this one, the dragon's render took 1.9 % more instructions.)
+#[inline(always)]
+pub(super) fn set_bits64(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let bit = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            bit
+        })
+    })
+}
+
 /// `f`'s bits mapped so that unsigned integer order is float order (NaN aside).
 #[inline(always)]
 pub(super) fn order_key(f: f32) -> u32 {
