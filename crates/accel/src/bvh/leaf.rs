@@ -125,7 +125,7 @@ pub(super) fn closest_in_leaf<F: Filter>(
         range.max
     } else {
         let test = Candidates { leaf, leaves, first, lanes, ray, range, found };
-        exact_out_of_line(filter, ClosestOfCandidates { filter, test, prepared: &prepared })
+        exact_out_of_line(filter, ClosestOfCandidates { filter, test, prepared })
     }
 }
 
@@ -190,7 +190,7 @@ pub(super) fn closest_of_candidates_scalar(mut test: Candidates) -> f32 {
 struct ClosestOfCandidates<'a, F: Filter> {
     filter: F,
     test: Candidates<'a>,
-    prepared: &'a F::Prepared,
+    prepared: F::Prepared,
 }
 
 impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
@@ -198,7 +198,7 @@ impl<F: Filter> Exact for ClosestOfCandidates<'_, F> {
 
     #[inline(always)]
     fn run(self) -> f32 {
-        self.filter.closest_of_candidates(self.test, self.prepared)
+        self.filter.closest_of_candidates(self.test, &self.prepared)
     }
 }
 
