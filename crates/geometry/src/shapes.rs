@@ -76,10 +76,17 @@ impl Triangle {
     /// vertices are exact and the products neither overflow nor underflow for any f32 triangle.
     #[inline(always)]
     pub fn normal64(&self) -> [f64; 3] {
-        let p = self.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-        let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-        let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+        let [e1, e2] = self.edges64();
         [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    }
+
+    /// The edges `p1 - p0` and `p2 - p0` in f64, where the differences of f32 vertices are exact.
+    // Written out: array maps in a path the compiler deems cold are left as calls.
+    #[inline(always)]
+    pub fn edges64(&self) -> [[f64; 3]; 2] {
+        let [p0, p1, p2] = self.p;
+        let edge = |q: Vec3A| [q.x as f64 - p0.x as f64, q.y as f64 - p0.y as f64, q.z as f64 - p0.z as f64];
+        [edge(p1), edge(p2)]
     }
 
     /// Whether the triangle spans a plane: its [`Triangle::normal64`] is neither zero nor infinite

@@ -273,9 +273,8 @@ pub fn unit_normal(tri: &Triangle) -> Option<Vec3A> {
 /// rounding of [`Triangle::normal64`]'s components.
 #[inline(always)]
 pub fn normal64_magnitude(tri: &Triangle) -> [f64; 3] {
-    let p = tri.p.map(|v| [v.x as f64, v.y as f64, v.z as f64]);
-    let e1 = [0, 1, 2].map(|k| (p[1][k] - p[0][k]).abs());
-    let e2 = [0, 1, 2].map(|k| (p[2][k] - p[0][k]).abs());
+    let [e1, e2] = tri.edges64();
+    let (e1, e2) = ([e1[0].abs(), e1[1].abs(), e1[2].abs()], [e2[0].abs(), e2[1].abs(), e2[2].abs()]);
     [e1[1] * e2[2] + e1[2] * e2[1], e1[2] * e2[0] + e1[0] * e2[2], e1[0] * e2[1] + e1[1] * e2[0]]
 }
 
@@ -302,8 +301,9 @@ fn plane_offsets(tri: &Triangle, ray: &ShearedRay) -> ([f64; 3], [f64; 3]) {
 
 /// A bound on the error of [`plane_distance64`]'s `t`: each of the normal, the offset and the dot
 /// products carries a few f64 roundings, and a relative 2^-48 of the sums of magnitudes (those of the
-/// normal's products included) bounds them all.
-#[cold]
+/// normal's products included) bounds them all. Not rare: a ray leaving a triangle's surface tests it
+/// again this way.
+#[inline]
 fn plane_distance_error(tri: &Triangle, n: [f64; 3], ray: &ShearedRay, t: f64) -> f64 {
     let (q, d) = plane_offsets(tri, ray);
     let nabs = normal64_magnitude(tri);
