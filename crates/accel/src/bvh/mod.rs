@@ -36,6 +36,7 @@ use raylume_geometry::{Aabb, Interval, Ray, Sphere, Vec3A};
 use raylume_intersect::{Intersect, SphereLanes, has_unit_normal, spheres_roots};
 use stream::PacketQuery;
 use triangles::Leaf;
+use wide::OneBox;
 pub(crate) use wide::{BoxRay, FewShapes};
 use wide::{Frustum, MAX_FIRST, WideTree, leaf_range, leaf_ref, reach, set_bits};
 
@@ -91,11 +92,11 @@ pub struct Bvh<P> {
     /// at once by a shadow ray instead of box by box (a closest-hit query, which makes each hit's
     /// record, tests them box by box: measured faster).
     flat_spheres: Option<SphereLanes>,
-    /// Where other shapes lie outside the box around the triangles (or planes run past it): that box,
-    /// as a node of one shape. Rays from those shapes, or bounded by their hits, often miss
+    /// Where other shapes lie outside the box around the triangles (or planes run past it): that box. Rays from those shapes, or bounded by their hits, often miss
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
     /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
-    triangles_box: Option<FewShapes>,
+    /// Tested as one box (three coordinates at once), not as a node's four slots.
+    triangles_box: Option<OneBox>,
     /// The box around the triangles, as a node of one shape: a packet whose rays all miss it skips
     /// the triangles' walk, and the making of its rays' state.
     triangles_node: Option<FewShapes>,
@@ -201,7 +202,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             if unbounded.is_empty() && items.iter().all(inside) {
                 return None;
             }
-            Some(FewShapes::new([b]))
+            Some(OneBox::new(b))
         });
         let triangles_node = triangles.as_ref().map(|t| FewShapes::new([t.bounds()]));
         let bounds = triangles
