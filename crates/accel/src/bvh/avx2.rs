@@ -643,6 +643,20 @@ fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
     range.max
 }
 
+/// The f64 plane distances `$distance!(half)` (four lanes each) of the halves that hold a lane of
+/// `$lanes` (the others' lanes zero), where finite, else the f32 distances `$t` ([`finite_or`]). A macro:
+/// each caller's `$distance` is a macro too (see `Walk`).
+macro_rules! halves_or {
+    ($simd:ident, $lanes:ident, $t:ident, $distance:ident) => {{
+        let none = $simd.sse._mm_setzero_ps();
+        let plane = $simd.avx._mm256_set_m128(
+            if $lanes & 0xF0 != 0 { $distance!(1) } else { none },
+            if $lanes & 0x0F != 0 { $distance!(0) } else { none },
+        );
+        finite_or($simd, plane, $t)
+    }};
+}
+
 /// [`decided_distance`](raylume_intersect::decided_distance) of every lane of `leaf` whose f32 distance
 /// is `t`, with the scalar routine's operations in its order, four lanes at a time in f64: the
 /// triangle's `normal64`, the distance to its plane, and `t` where that distance is not finite in f32
@@ -683,12 +697,7 @@ fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: 
             plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
         }};
     }
-    let none = simd.sse._mm_setzero_ps();
-    let plane = avx._mm256_set_m128(
-        if lanes & 0xF0 != 0 { distance!(1) } else { none },
-        if lanes & 0x0F != 0 { distance!(0) } else { none },
-    );
-    finite_or(simd, plane, t)
+    halves_or!(simd, lanes, t, distance)
 }
 
 /// `(n . q) / (n . d)` in f64, four lanes, rounded to f32: the distance along `d` to the plane of normal
@@ -905,12 +914,7 @@ fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGro
             plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
         }};
     }
-    let none = simd.sse._mm_setzero_ps();
-    let plane = avx._mm256_set_m128(
-        if lanes & 0xF0 != 0 { distance!(1) } else { none },
-        if lanes & 0x0F != 0 { distance!(0) } else { none },
-    );
-    finite_or(simd, plane, t)
+    halves_or!(simd, lanes, t, distance)
 }
 
 /// [`Filter::closest_in_block`]: each triangle of the leaf in turn for all the block's rays at once, its
