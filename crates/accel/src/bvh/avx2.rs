@@ -9,7 +9,7 @@
 use glam::Vec4;
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
-use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
+use raylume_intersect::{LaneRoots, ShearedRay, SphereLanes, TINY_DISTANCE, TINY_TERM, TriangleHit};
 use std::arch::x86_64::{
     __m128, __m256, __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ,
 };
@@ -327,6 +327,28 @@ impl<R: Report> pulp::NullaryFnOnce for PacketWalk<'_, '_, R> {
             leaf_bounds: self.leaf_bounds,
         };
         leaves.answer(self.rays, self.negative, self.query)
+    }
+}
+
+/// [`raylume_intersect::spheres_roots`] compiled with AVX2 enabled.
+pub(super) fn spheres_roots(simd: V3, spheres: &SphereLanes, ray: &Ray, min: f32, max: f32) -> LaneRoots {
+    simd.vectorize(SpheresRoots { spheres, ray, min, max })
+}
+
+/// [`spheres_roots`]' arguments, as a function object whose call is always inlined (see [`Walk`]).
+struct SpheresRoots<'a> {
+    spheres: &'a SphereLanes,
+    ray: &'a Ray,
+    min: f32,
+    max: f32,
+}
+
+impl pulp::NullaryFnOnce for SpheresRoots<'_> {
+    type Output = LaneRoots;
+
+    #[inline(always)]
+    fn call(self) -> LaneRoots {
+        raylume_intersect::spheres_roots(self.spheres, self.ray, self.min, self.max)
     }
 }
 
@@ -1155,6 +1177,44 @@ mod tests {
             let eight = simd.vectorize(|| BoxRay8::new(simd, &ray).intersect(&node, t_range.0, t_range.1));
             let four = BoxRay::new(&ray);
             matches_halves(eight, &boxes, |node| four.intersect(node, t_range.0, t_range.1))?;
+        }
+
+        /// The spheres' roots compiled with AVX2 are the portable ones, bit for bit: rays from inside,
+        /// from the surface and from far off, spheres from 1e-20 (beyond the f32 routine) to 1e6,
+        /// empty and partial lanes, closest-hit and occlusion ranges.
+        #[test]
+        fn vector_sphere_roots_are_the_portable_ones(
+            spheres in prop::collection::vec((prop::array::uniform3(-4.0f32..4.0), 0.01f32..3.0), 0..=4),
+            scale in prop_oneof![Just(1.0f32), Just(1e-20), Just(1e-4), Just(1e6)],
+            o in prop::array::uniform3(arb_component()),
+            d in prop::array::uniform3(arb_component()),
+            on in 0usize..5,
+            aim in 0usize..5,
+            t_range in (prop_oneof![Just(0.0f32), 0.0f32..2.0], prop_oneof![Just(f32::INFINITY), 0.0f32..20.0]),
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let spheres: Vec<raylume_geometry::Sphere> = spheres
+                .iter()
+                .map(|&(c, r)| raylume_geometry::Sphere { center: Vec3A::from_array(c) * scale, radius: r * scale })
+                .collect();
+            // Origins on a sphere (its surface along the direction) as often as off them, and
+            // directions towards a point near a sphere as often as any.
+            let d = match spheres.get(aim) {
+                Some(s) => s.center + Vec3A::from_array(d) * (0.4 * s.radius) - Vec3A::from_array(o) * scale,
+                None => Vec3A::from_array(d),
+            };
+            let o = match spheres.get(on) {
+                Some(s) => s.center + d.normalize_or(Vec3A::X) * s.radius,
+                None => Vec3A::from_array(o) * scale,
+            };
+            let Some((ray, _)) = Ray::new(o, d).canonical() else { return Ok(()) };
+            let lanes = SphereLanes::new(&spheres);
+            let vector = spheres_roots(simd, &lanes, &ray, t_range.0, t_range.1);
+            let portable = raylume_intersect::spheres_roots(&lanes, &ray, t_range.0, t_range.1);
+            prop_assert_eq!((vector.hit, vector.undecided), (portable.hit, portable.undecided));
+            for lane in set_bits(portable.hit) {
+                prop_assert_eq!(vector.t.to_array()[lane as usize].to_bits(), portable.t.to_array()[lane as usize].to_bits());
+            }
         }
 
         /// The AVX check of a run of rays answers as each ray's own checks.

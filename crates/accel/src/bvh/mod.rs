@@ -33,7 +33,7 @@ use build::{BuildItem, build_binary};
 pub use kernel::BvhKernel;
 use kernel::Triangles;
 use raylume_geometry::{Aabb, Interval, Ray, Sphere, Vec3A};
-use raylume_intersect::{Intersect, SphereLanes, has_unit_normal, spheres_roots};
+use raylume_intersect::{Intersect, LaneRoots, SphereLanes, has_unit_normal, spheres_roots};
 use stream::PacketQuery;
 use triangles::Leaf;
 use wide::OneBox;
@@ -88,10 +88,9 @@ pub struct Bvh<P> {
     /// With at most [`FLAT_OTHERS`] primitives other than triangles: their boxes, slot `i` holding
     /// primitive `i` of `others`, tested instead of walking their tree.
     flat_others: Option<FewShapes>,
-    /// With [`Bvh::flat_others`], where every one of those shapes is a sphere: the spheres, tested all
-    /// at once by a shadow ray instead of box by box (a closest-hit query, which makes each hit's
-    /// record, tests them box by box: measured faster).
-    flat_spheres: Option<SphereLanes>,
+    /// With [`Bvh::flat_others`], where every one of those shapes is a sphere: the spheres, each ray
+    /// finding its roots on all of them at once instead of testing them box by box.
+    flat_spheres: Option<FewSpheres>,
     /// Where other shapes lie outside the box around the triangles (or planes run past it): that box. Rays from those shapes, or bounded by their hits, often miss
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
     /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
@@ -195,7 +194,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             .map(|_| FewShapes::new(items.iter().map(|item| item.bounds)));
         let flat_spheres = others.as_ref().filter(|_| flat_others.is_some()).and_then(|(_, p, _)| {
             let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
-            spheres.map(|s| SphereLanes::new(&s))
+            spheres.map(|s| FewSpheres::new(&s, kernel))
         });
         let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
             let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
@@ -317,6 +316,13 @@ impl<P: Intersect> Bvh<P> {
         if let Some(b) = best {
             t_range = t_range.with_max(b.hit.t);
         }
+        if let (Some(spheres), Some((_, prims, ids))) = (&self.flat_spheres, &self.others)
+            && closest_sphere(spheres, prims, ids, ray, t_range, best)
+        {
+            tally.visited();
+            (0..spheres.lanes.used.count_ones()).for_each(|_| tally.tested());
+            return;
+        }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
             tally.visited();
             flat.closest(ray, &mut t_range, |i, t_range| {
@@ -361,8 +367,8 @@ impl<P: Intersect> Bvh<P> {
         let Some((tree, prims, _)) = &self.others else { return false };
         if let Some(spheres) = &self.flat_spheres {
             tally.visited();
-            let roots = spheres_roots(spheres, ray, 0.0, t_max);
-            (0..spheres.used.count_ones()).for_each(|_| tally.tested());
+            let roots = spheres.roots(ray, 0.0, t_max);
+            (0..spheres.lanes.used.count_ones()).for_each(|_| tally.tested());
             return roots.hit != 0
                 || set_bits(roots.undecided).any(|slot| prims[slot as usize].occluded_canonical(ray, t_max));
         }
@@ -381,6 +387,75 @@ impl<P: Intersect> Bvh<P> {
             })
         })
     }
+}
+
+/// A few spheres held lane by lane ([`Bvh::flat_spheres`]), with the token of the AVX2 kernel where
+/// the BVH runs it.
+#[derive(Clone, Copy, Debug)]
+struct FewSpheres {
+    lanes: SphereLanes,
+    #[cfg(target_arch = "x86_64")]
+    simd: Option<pulp::x86::V3>,
+}
+
+impl FewSpheres {
+    fn new(spheres: &[Sphere], kernel: BvhKernel) -> Self {
+        Self {
+            lanes: SphereLanes::new(spheres),
+            #[cfg(target_arch = "x86_64")]
+            simd: pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2),
+        }
+    }
+
+    /// [`spheres_roots`] of `ray` within `[min, max]`: compiled with AVX2 enabled where the kernel is
+    /// AVX2 (the same operations, so the same bits, with the f64 squares four to a register).
+    #[inline(always)]
+    fn roots(&self, ray: &Ray, min: f32, max: f32) -> LaneRoots {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(simd) = self.simd {
+            return avx2::spheres_roots(simd, &self.lanes, ray, min, max);
+        }
+        spheres_roots(&self.lanes, ray, min, max)
+    }
+}
+
+/// The closest hit within `t_range` of a few spheres held lane by lane ([`Bvh::flat_spheres`]: the
+/// shapes `prims` with ids `ids`), kept in `best` if it [beats](PrimitiveHit::beats) it. Every sphere's
+/// root is found at once and the hit is made for the closest root only (ties to the lowest id): the
+/// answer of the spheres tested one by one with the range shrinking to each hit, as a sphere's root
+/// within a smaller range is the same root or none. `false`, with `best` untouched, when a sphere's
+/// sizes leave it to the one-sphere routine's f64 path.
+#[inline(always)]
+fn closest_sphere<P: Intersect>(
+    spheres: &FewSpheres,
+    prims: &[P],
+    ids: &[u32],
+    ray: &Ray,
+    t_range: Interval,
+    best: &mut Option<PrimitiveHit>,
+) -> bool {
+    let roots = spheres.roots(ray, t_range.min, t_range.max);
+    if roots.undecided != 0 {
+        return false;
+    }
+    let t = roots.t.to_array();
+    let mut hits = roots.hit;
+    while hits != 0 {
+        let mut pick = hits.trailing_zeros() as usize;
+        for lane in set_bits(hits & (hits - 1)) {
+            let l = lane as usize;
+            if t[l] < t[pick] || (t[l] == t[pick] && ids[l] < ids[pick]) {
+                pick = l;
+            }
+        }
+        // A root whose point cannot be formed is no hit, and the next closest root stands.
+        if let Some(hit) = prims[pick].hit_at_root(ray, t[pick], t_range) {
+            PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: ids[pick] });
+            return true;
+        }
+        hits &= !(1 << pick);
+    }
+    true
 }
 
 /// The mean of the largest extent of `boxes` (`[min, max]` by axis); zero for none.
