@@ -9,7 +9,7 @@
 use glam::Vec4;
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
-use raylume_intersect::{LaneRoots, ShearedRay, SphereLanes, TINY_DISTANCE, TINY_TERM, TriangleHit};
+use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
 use std::arch::x86_64::{
     __m128, __m256, __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ,
 };
@@ -327,28 +327,6 @@ impl<R: Report> pulp::NullaryFnOnce for PacketWalk<'_, '_, R> {
             leaf_bounds: self.leaf_bounds,
         };
         leaves.answer(self.rays, self.negative, self.query)
-    }
-}
-
-/// [`raylume_intersect::spheres_roots`] compiled with AVX2 enabled.
-pub(super) fn spheres_roots(simd: V3, spheres: &SphereLanes, ray: &Ray, min: f32, max: f32) -> LaneRoots {
-    simd.vectorize(SpheresRoots { spheres, ray, min, max })
-}
-
-/// [`spheres_roots`]' arguments, as a function object whose call is always inlined (see [`Walk`]).
-struct SpheresRoots<'a> {
-    spheres: &'a SphereLanes,
-    ray: &'a Ray,
-    min: f32,
-    max: f32,
-}
-
-impl pulp::NullaryFnOnce for SpheresRoots<'_> {
-    type Output = LaneRoots;
-
-    #[inline(always)]
-    fn call(self) -> LaneRoots {
-        raylume_intersect::spheres_roots(self.spheres, self.ray, self.min, self.max)
     }
 }
 
@@ -1208,8 +1186,8 @@ mod tests {
                 None => Vec3A::from_array(o) * scale,
             };
             let Some((ray, _)) = Ray::new(o, d).canonical() else { return Ok(()) };
-            let lanes = SphereLanes::new(&spheres);
-            let vector = spheres_roots(simd, &lanes, &ray, t_range.0, t_range.1);
+            let lanes = raylume_intersect::SphereLanes::new(&spheres);
+            let vector = simd.vectorize(|| raylume_intersect::spheres_roots(&lanes, &ray, t_range.0, t_range.1));
             let portable = raylume_intersect::spheres_roots(&lanes, &ray, t_range.0, t_range.1);
             prop_assert_eq!((vector.hit, vector.undecided), (portable.hit, portable.undecided));
             for lane in set_bits(portable.hit) {

@@ -90,7 +90,9 @@ pub struct Bvh<P> {
     flat_others: Option<FewShapes>,
     /// With [`Bvh::flat_others`], where every one of those shapes is a sphere: the spheres, each ray
     /// finding its roots on all of them at once instead of testing them box by box.
-    flat_spheres: Option<FewSpheres>,
+    flat_spheres: Option<SphereLanes>,
+    /// Where the triangles' kernel is AVX2: its token, under which the other shapes' tests run too.
+    avx2: Avx2,
     /// Where other shapes lie outside the box around the triangles (or planes run past it): that box. Rays from those shapes, or bounded by their hits, often miss
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
     /// shape lies inside it (or there is none), rays mostly meet it, and go to the walk untested.
@@ -194,7 +196,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             .map(|_| FewShapes::new(items.iter().map(|item| item.bounds)));
         let flat_spheres = others.as_ref().filter(|_| flat_others.is_some()).and_then(|(_, p, _)| {
             let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
-            spheres.map(|s| FewSpheres::new(&s, kernel))
+            spheres.map(|s| SphereLanes::new(&s))
         });
         let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
             let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
@@ -217,6 +219,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             other_boxes,
             flat_others,
             flat_spheres,
+            avx2: Avx2::new(kernel),
             triangles_box,
             triangles_node,
             unbounded,
@@ -317,10 +320,17 @@ impl<P: Intersect> Bvh<P> {
             t_range = t_range.with_max(b.hit.t);
         }
         if let (Some(spheres), Some((_, prims, ids))) = (&self.flat_spheres, &self.others)
-            && closest_sphere(spheres, prims, ids, ray, t_range, best)
+            && closest_sphere(
+                self.avx2.run(|| spheres_roots(spheres, ray, t_range.min, t_range.max)),
+                prims,
+                ids,
+                ray,
+                t_range,
+                best,
+            )
         {
             tally.visited();
-            (0..spheres.lanes.used.count_ones()).for_each(|_| tally.tested());
+            (0..spheres.used.count_ones()).for_each(|_| tally.tested());
             return;
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
@@ -367,8 +377,8 @@ impl<P: Intersect> Bvh<P> {
         let Some((tree, prims, _)) = &self.others else { return false };
         if let Some(spheres) = &self.flat_spheres {
             tally.visited();
-            let roots = spheres.roots(ray, 0.0, t_max);
-            (0..spheres.lanes.used.count_ones()).for_each(|_| tally.tested());
+            let roots = self.avx2.run(|| spheres_roots(spheres, ray, 0.0, t_max));
+            (0..spheres.used.count_ones()).for_each(|_| tally.tested());
             return roots.hit != 0
                 || set_bits(roots.undecided).any(|slot| prims[slot as usize].occluded_canonical(ray, t_max));
         }
@@ -389,52 +399,49 @@ impl<P: Intersect> Bvh<P> {
     }
 }
 
-/// A few spheres held lane by lane ([`Bvh::flat_spheres`]), with the token of the AVX2 kernel where
-/// the BVH runs it.
+/// The token of the AVX2 kernel, where the BVH runs it: code that runs inside [`Avx2::run`] is
+/// compiled with AVX2 enabled (the same operations, so the same bits, three operands and four f64
+/// lanes to a register).
 #[derive(Clone, Copy, Debug)]
-struct FewSpheres {
-    lanes: SphereLanes,
-    #[cfg(target_arch = "x86_64")]
-    simd: Option<pulp::x86::V3>,
-}
+struct Avx2(#[cfg(target_arch = "x86_64")] Option<pulp::x86::V3>);
 
-impl FewSpheres {
-    fn new(spheres: &[Sphere], kernel: BvhKernel) -> Self {
-        Self {
-            lanes: SphereLanes::new(spheres),
-            #[cfg(target_arch = "x86_64")]
-            simd: pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2),
+impl Avx2 {
+    fn new(kernel: BvhKernel) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        return Self(pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2));
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = kernel;
+            Self()
         }
     }
 
-    /// [`spheres_roots`] of `ray` within `[min, max]`: compiled with AVX2 enabled where the kernel is
-    /// AVX2 (the same operations, so the same bits, with the f64 squares four to a register).
+    /// `f()`, compiled with AVX2 enabled where the token is there (everything `f` inlines).
     #[inline(always)]
-    fn roots(&self, ray: &Ray, min: f32, max: f32) -> LaneRoots {
+    fn run<R>(self, f: impl FnOnce() -> R) -> R {
         #[cfg(target_arch = "x86_64")]
-        if let Some(simd) = self.simd {
-            return avx2::spheres_roots(simd, &self.lanes, ray, min, max);
+        if let Some(simd) = self.0 {
+            return simd.vectorize(f);
         }
-        spheres_roots(&self.lanes, ray, min, max)
+        f()
     }
 }
 
 /// The closest hit within `t_range` of a few spheres held lane by lane ([`Bvh::flat_spheres`]: the
-/// shapes `prims` with ids `ids`), kept in `best` if it [beats](PrimitiveHit::beats) it. Every sphere's
-/// root is found at once and the hit is made for the closest root only (ties to the lowest id): the
-/// answer of the spheres tested one by one with the range shrinking to each hit, as a sphere's root
-/// within a smaller range is the same root or none. `false`, with `best` untouched, when a sphere's
-/// sizes leave it to the one-sphere routine's f64 path.
+/// shapes `prims` with ids `ids`) whose roots within that range are `roots`, kept in `best` if it
+/// [beats](PrimitiveHit::beats) it. The hit is made for the closest root only (ties to the lowest id):
+/// the answer of the spheres tested one by one with the range shrinking to each hit, as a sphere's
+/// root within a smaller range is the same root or none. `false`, with `best` untouched, when a
+/// sphere's sizes leave it to the one-sphere routine's f64 path.
 #[inline(always)]
 fn closest_sphere<P: Intersect>(
-    spheres: &FewSpheres,
+    roots: LaneRoots,
     prims: &[P],
     ids: &[u32],
     ray: &Ray,
     t_range: Interval,
     best: &mut Option<PrimitiveHit>,
 ) -> bool {
-    let roots = spheres.roots(ray, t_range.min, t_range.max);
     if roots.undecided != 0 {
         return false;
     }
