@@ -113,6 +113,20 @@ impl SphereLanes {
             used: (1 << spheres.len()) - 1,
         }
     }
+
+    /// The sphere of lane `lane` (below four), as it was given.
+    ///
+    /// ```
+    /// use raylume_geometry::{Sphere, Vec3A};
+    /// use raylume_intersect::SphereLanes;
+    /// let s = Sphere { center: Vec3A::new(1.0, 2.0, 3.0), radius: 0.5 };
+    /// assert_eq!(SphereLanes::new(&[s, s]).sphere(1), s);
+    /// ```
+    #[inline(always)]
+    pub fn sphere(&self, lane: usize) -> Sphere {
+        let [x, y, z] = self.center.map(|c| c.to_array()[lane]);
+        Sphere { center: Vec3A::new(x, y, z), radius: self.radius.to_array()[lane] }
+    }
 }
 
 /// The first root of each sphere of `spheres` for the canonical `ray` within `[min, max]`, lane by

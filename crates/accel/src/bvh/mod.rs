@@ -319,10 +319,10 @@ impl<P: Intersect> Bvh<P> {
         if let Some(b) = best {
             t_range = t_range.with_max(b.hit.t);
         }
-        if let (Some(spheres), Some((_, prims, ids))) = (&self.flat_spheres, &self.others)
+        if let (Some(spheres), Some((_, _, ids))) = (&self.flat_spheres, &self.others)
             && closest_sphere(
+                spheres,
                 self.avx2.run(|| spheres_roots(spheres, ray, t_range.min, t_range.max)),
-                prims,
                 ids,
                 ray,
                 t_range,
@@ -427,16 +427,16 @@ impl Avx2 {
     }
 }
 
-/// The closest hit within `t_range` of a few spheres held lane by lane ([`Bvh::flat_spheres`]: the
-/// shapes `prims` with ids `ids`) whose roots within that range are `roots`, kept in `best` if it
+/// The closest hit within `t_range` of the few spheres `spheres` ([`Bvh::flat_spheres`], with ids
+/// `ids`) whose roots within that range are `roots`, kept in `best` if it
 /// [beats](PrimitiveHit::beats) it. The hit is made for the closest root only (ties to the lowest id):
 /// the answer of the spheres tested one by one with the range shrinking to each hit, as a sphere's
 /// root within a smaller range is the same root or none. `false`, with `best` untouched, when a
 /// sphere's sizes leave it to the one-sphere routine's f64 path.
 #[inline(always)]
-fn closest_sphere<P: Intersect>(
+fn closest_sphere(
+    spheres: &SphereLanes,
     roots: LaneRoots,
-    prims: &[P],
     ids: &[u32],
     ray: &Ray,
     t_range: Interval,
@@ -456,7 +456,7 @@ fn closest_sphere<P: Intersect>(
             }
         }
         // A root whose point cannot be formed is no hit, and the next closest root stands.
-        if let Some(hit) = prims[pick].hit_at_root(ray, t[pick], t_range) {
+        if let Some(hit) = spheres.sphere(pick).hit_at_root(ray, t[pick], t_range) {
             PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: ids[pick] });
             return true;
         }
