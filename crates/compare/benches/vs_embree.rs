@@ -33,6 +33,9 @@ use raylume_compare::{load_shared, shared_meshes};
 use raylume_geometry::{Interval, Ray};
 use raylume_intersect::Primitive;
 
+/// The rays of an 8x8 tile: a batch query's run, and an Embree stream's.
+const TILE: usize = 64;
+
 /// One pass of an engine over a ray set: how many rays it found hit (or occluded).
 type Pass<'a> = Box<dyn FnMut() -> usize + 'a>;
 
@@ -65,8 +68,9 @@ fn main() {
         let embree = Embree::with_flags(&w.triangles, false);
         let robust = Embree::with_flags(&w.triangles, true);
         let tiles = raylume_scene::rays::in_tiles(&w.camera, w.side, 8);
-        let mut hits = vec![None; tiles.len()];
-        let mut occluded = vec![false; tiles.len()];
+        // One tile's answers at a time, as Embree's packets and streams give theirs.
+        let mut hits = vec![None; TILE];
+        let mut occluded = vec![false; TILE];
         let (mut hit_buffer, mut ray_buffer) = (Vec::new(), Vec::new());
         for query in ["closest", "occluded"] {
             for (kind, rays) in [("camera", &w.camera), ("random", &w.random)] {
@@ -88,13 +92,23 @@ fn main() {
             let closest = query == "closest";
             let raylume: Pass = if closest {
                 Box::new(|| {
-                    ours.closest_hits(&tiles, Interval::POSITIVE, &mut hits);
-                    hits.iter().filter(|h| h.is_some()).count()
+                    let mut count = 0;
+                    for tile in tiles.chunks(TILE) {
+                        let hits = &mut hits[..tile.len()];
+                        ours.closest_hits(tile, Interval::POSITIVE, hits);
+                        count += hits.iter().filter(|h| h.is_some()).count();
+                    }
+                    count
                 })
             } else {
                 Box::new(|| {
-                    ours.occluded_each(&tiles, f32::INFINITY, &mut occluded);
-                    occluded.iter().filter(|&&o| o).count()
+                    let mut count = 0;
+                    for tile in tiles.chunks(TILE) {
+                        let occluded = &mut occluded[..tile.len()];
+                        ours.occluded_each(tile, f32::INFINITY, occluded);
+                        count += occluded.iter().filter(|&&o| o).count();
+                    }
+                    count
                 })
             };
             let (packet, stream): (Pass, Pass) = if closest {
