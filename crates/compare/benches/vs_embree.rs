@@ -70,7 +70,7 @@ fn main() {
         let tiles = raylume_scene::rays::in_tiles(&w.camera, w.side, 8);
         // One tile's answers at a time, as Embree's packets and streams give theirs.
         let mut hits = vec![None; TILE];
-        let mut occluded = vec![false; TILE];
+        let mut occluded = [false; TILE];
         let (mut hit_buffer, mut ray_buffer) = (Vec::new(), Vec::new());
         for query in ["closest", "occluded"] {
             for (kind, rays) in [("camera", &w.camera), ("random", &w.random)] {
