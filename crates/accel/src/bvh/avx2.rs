@@ -826,13 +826,17 @@ struct BlockFrame {
 impl BlockFrame {
     #[inline(always)]
     fn new(simd: V3, groups: &[FrameGroup], axes: [usize; 3]) -> Self {
-        let axes = axes.map(|k| k.min(2));
-        let lanes = |row: fn(&FrameGroup) -> &[Vec4; 3], a: usize| eight(simd, row(&groups[0])[a], row(&groups[1])[a]);
+        let [kx, ky, kz] = [axes[0].min(2), axes[1].min(2), axes[2].min(2)];
+        let (low, high) = (&groups[0], &groups[1]);
+        // Written out rather than by array maps, which compile out of line, with the intrinsics as
+        // calls (see `Walk`).
+        let origin = |k: usize| eight(simd, low.rays.lanes.origin[k], high.rays.lanes.origin[k]);
+        let shear = |a: usize| eight(simd, low.shear[a], high.shear[a]);
         Self {
             simd,
-            axes,
-            origin: axes.map(|k| lanes(|g| &g.rays.lanes.origin, k)),
-            shear: [0, 1, 2].map(|a| lanes(|g| &g.shear, a)),
+            axes: [kx, ky, kz],
+            origin: [origin(kx), origin(ky), origin(kz)],
+            shear: [shear(0), shear(1), shear(2)],
         }
     }
 
