@@ -892,7 +892,7 @@ fn eight(simd: V3, low: Vec4, high: Vec4) -> __m256 {
 #[inline(always)]
 fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGroup], t: __m256, lanes: u32) -> __m256 {
     let avx = simd.avx;
-    let p = |k: usize| [0, 1, 2].map(|a| leaf.v[k][a][j] as f64);
+    let p = |k: usize| [leaf.v[k][0][j] as f64, leaf.v[k][1][j] as f64, leaf.v[k][2][j] as f64];
     let (p0, p1, p2) = (p(0), p(1), p(2));
     let e1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
     let e2 = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];

@@ -191,6 +191,20 @@ pub(super) struct Block<'a, K> {
 /// tested, its ray is retired from the start.
 const NO_FRAME: ShearedRay = ShearedRay { origin: Vec3A::ZERO, dir: Vec3A::Z, axes: [0, 1, 2], shear: [0.0, 0.0, 1.0] };
 
+/// Group `g` of a packet's `rays` with its rays' frames written into `sheared` and, for a ray
+/// without one, its end of range into `ends`; a group past the rays, never tested, repeats the first
+/// ray.
+#[inline(always)]
+fn frame_group(rays: &[Ray], g: usize, sheared: &mut [ShearedRay; PACKET], ends: &mut [f32; PACKET]) -> FrameGroup {
+    let Some(rays) = rays.get(4 * g..).filter(|rest| !rest.is_empty()) else {
+        return FrameGroup { rays: RayGroup::new(&rays[..1]), shear: [Vec4::ZERO; 3] };
+    };
+    let rays = &rays[..rays.len().min(4)];
+    let group = RayGroup::new(rays);
+    let (frames, ends) = (&mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
+    FrameGroup { rays: group, shear: sheared_frames(rays, group.lanes.dir, frames, ends) }
+}
+
 impl<'a, K: Copy> Rays<'a, K> {
     /// The state of `rays` (one to [`PACKET`]) with the ends of range `t_max`, each ray keeping `kept`.
     #[inline(always)]
@@ -198,16 +212,15 @@ impl<'a, K: Copy> Rays<'a, K> {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
         let mut sheared = [NO_FRAME; PACKET];
-        // Groups past the rays, never tested, repeat the first ray: each group is written once.
-        let groups = std::array::from_fn(|g| {
-            let Some(rays) = rays.get(4 * g..).filter(|rest| !rest.is_empty()) else {
-                return FrameGroup { rays: RayGroup::new(&rays[..1]), shear: [Vec4::ZERO; 3] };
+        // Each group is written once, in place: an array literal of inlined calls (`array::from_fn`'s
+        // closure compiles out of line, outside the AVX2 function, its groups copied into place).
+        macro_rules! groups {
+            ($($g:literal)*) => {
+                [$(frame_group(rays, $g, &mut sheared, &mut ends)),*]
             };
-            let rays = &rays[..rays.len().min(4)];
-            let group = RayGroup::new(rays);
-            let (frames, ends) = (&mut sheared[4 * g..4 * g + 4], &mut ends[4 * g..4 * g + 4]);
-            FrameGroup { rays: group, shear: sheared_frames(rays, group.lanes.dir, frames, ends) }
-        });
+        }
+        const _: () = assert!(GROUPS == 16, "one literal per group");
+        let groups = groups!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
 
@@ -406,10 +419,19 @@ pub(super) fn closest_by_shapes<P: Intersect>(
 /// repeat the first ray: each group is written once, with no clearing of the array first.
 #[inline(always)]
 fn ray_groups(rays: &[Ray]) -> [RayGroup; GROUPS] {
-    std::array::from_fn(|g| {
+    let group = |g: usize| {
         let group = rays.get(4 * g..).filter(|rest| !rest.is_empty()).unwrap_or(&rays[..1]);
         RayGroup::new(&group[..group.len().min(4)])
-    })
+    };
+    // An array literal rather than `array::from_fn`, whose closure compiles out of line (see
+    // `Rays::new`).
+    macro_rules! groups {
+        ($($g:literal)*) => {
+            [$(group($g)),*]
+        };
+    }
+    const _: () = assert!(GROUPS == 16, "one literal per group");
+    groups!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15)
 }
 
 /// The near and far planes, by the rays' signs `negative`, of the box around `boxes` (`[min, max]`
