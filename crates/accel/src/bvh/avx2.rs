@@ -44,10 +44,10 @@ impl Kernel<8> for V3 {
         tree: &WideTree<8>,
         tris: &Triangles,
         rays: &[Ray],
-        negative: [bool; 3],
+        frustum: &Frustum,
         query: PacketQuery<impl Report>,
     ) {
-        answer_packet(self, tree, &tris.leaves, &tris.leaf_bounds, rays, negative, query)
+        answer_packet(self, tree, &tris.leaves, &tris.leaf_bounds, rays, frustum, query)
     }
 }
 
@@ -85,11 +85,10 @@ pub(super) struct Frustum8 {
 }
 
 impl Frustum8 {
-    /// The packet of `rays`, as [`Frustum::new`] makes it.
+    /// The packet `f`, its values splatted to eight lanes.
     #[inline(always)]
-    fn new(simd: V3, rays: &[Ray], negative: [bool; 3]) -> Self {
-        let f = Frustum::new(rays, negative);
-        let avx = simd.avx;
+    fn new(simd: V3, f: &Frustum) -> Self {
+        let (avx, negative) = (simd.avx, f.negative);
         let mut g = Self {
             simd,
             near_origin: [avx._mm256_setzero_ps(); 3],
@@ -289,18 +288,18 @@ impl NodeTest<8> for Frustum8 {
     eight_wide_pushes!();
 }
 
-/// [`Leaves::answer`] for a packet of `rays` (signs `negative`) down the eight-wide tree, compiled
-/// with AVX2 enabled.
+/// [`Leaves::answer`] for a packet of `rays` (its frustum `frustum`) down the eight-wide tree,
+/// compiled with AVX2 enabled.
 fn answer_packet(
     simd: V3,
     tree: &WideTree<8>,
     leaves: &[Leaf],
     leaf_bounds: &[[f32; 6]],
     rays: &[Ray],
-    negative: [bool; 3],
+    frustum: &Frustum,
     query: PacketQuery<impl Report>,
 ) {
-    simd.vectorize(PacketWalk { simd, tree, leaves, leaf_bounds, rays, negative, query })
+    simd.vectorize(PacketWalk { simd, tree, leaves, leaf_bounds, rays, frustum, query })
 }
 
 /// A packet walk's arguments, as a function object whose call is always inlined (see [`Walk`]).
@@ -310,7 +309,7 @@ struct PacketWalk<'a, 'q, R> {
     leaves: &'a [Leaf],
     leaf_bounds: &'a [[f32; 6]],
     rays: &'a [Ray],
-    negative: [bool; 3],
+    frustum: &'a Frustum,
     query: PacketQuery<'q, R>,
 }
 
@@ -321,32 +320,33 @@ impl<R: Report> pulp::NullaryFnOnce for PacketWalk<'_, '_, R> {
     fn call(self) {
         let leaves = Leaves {
             tree: self.tree,
-            frustum: Frustum8::new(self.simd, self.rays, self.negative),
+            frustum: Frustum8::new(self.simd, self.frustum),
             filter: self.simd,
             leaves: self.leaves,
             leaf_bounds: self.leaf_bounds,
         };
-        leaves.answer(self.rays, self.negative, self.query)
+        leaves.answer(self.rays, self.frustum.negative, self.query)
     }
 }
 
-/// [`canonical_signs`](super::stream::canonical_signs) of `rays`, compiled with AVX2 enabled: each
-/// ray's origin and direction in one register, the checks gathered over the rays in registers.
-pub(super) fn canonical_signs(simd: V3, rays: &[Ray]) -> Option<[bool; 3]> {
-    simd.vectorize(CanonicalSigns { simd, rays })
+/// The [`Frustum`] of `rays` if [`canonical_signs`](super::stream::canonical_signs) finds they can
+/// walk as they are, compiled with AVX2 enabled: each ray's origin and direction in one register,
+/// the checks and the extremes of [`Frustum::new`] gathered over the rays in registers, in one pass.
+pub(super) fn canonical_frustum(simd: V3, rays: &[Ray]) -> Option<Frustum> {
+    simd.vectorize(CanonicalFrustum { simd, rays })
 }
 
-/// [`canonical_signs`]' arguments, as a function object whose call is always inlined (see [`Walk`]).
-struct CanonicalSigns<'a> {
+/// [`canonical_frustum`]'s arguments, as a function object whose call is always inlined (see [`Walk`]).
+struct CanonicalFrustum<'a> {
     simd: V3,
     rays: &'a [Ray],
 }
 
-impl pulp::NullaryFnOnce for CanonicalSigns<'_> {
-    type Output = Option<[bool; 3]>;
+impl pulp::NullaryFnOnce for CanonicalFrustum<'_> {
+    type Output = Option<Frustum>;
 
     #[inline(always)]
-    fn call(self) -> Option<[bool; 3]> {
+    fn call(self) -> Option<Frustum> {
         let avx = self.simd.avx;
         let first = self.rays.first()?;
         // Lanes 0-2: the origin; 4-6: the direction (lanes 3 and 7 are left out).
@@ -363,8 +363,13 @@ impl pulp::NullaryFnOnce for CanonicalSigns<'_> {
         let (mut in_range, mut other_signs) =
             (avx._mm256_castsi256_ps(avx._mm256_set1_epi32(-1)), avx._mm256_setzero_ps());
         let (mut reaches_half, mut time_nan) = (true, false);
+        // The extremes of the origins (low half) and directions (high half), as `Frustum::new` takes
+        // them: `minps` and `maxps` with the running value first.
+        let (mut lo, mut hi) = (avx._mm256_set1_ps(f32::INFINITY), avx._mm256_set1_ps(f32::NEG_INFINITY));
         for r in self.rays {
             let v = both(r);
+            lo = avx._mm256_min_ps(lo, v);
+            hi = avx._mm256_max_ps(hi, v);
             let a = avx._mm256_andnot_ps(sign, v);
             let inside =
                 avx._mm256_and_ps(avx._mm256_cmp_ps::<_CMP_LT_OQ>(a, below), avx._mm256_cmp_ps::<_CMP_GE_OQ>(a, from));
@@ -378,8 +383,16 @@ impl pulp::NullaryFnOnce for CanonicalSigns<'_> {
             && avx._mm256_movemask_ps(avx._mm256_and_ps(other_signs, sign)) & 0x70 == 0
             && reaches_half
             && !time_nan;
+        if !ok {
+            return None;
+        }
         let signs = first.dir.cmplt(raylume_geometry::Vec3A::ZERO).bitmask();
-        ok.then_some([signs & 1 != 0, signs & 2 != 0, signs & 4 != 0])
+        let negative = [signs & 1 != 0, signs & 2 != 0, signs & 4 != 0];
+        let halves = |v: __m256| -> [raylume_geometry::Vec3A; 2] {
+            [avx._mm256_castps256_ps128(v).into(), avx._mm256_extractf128_ps::<1>(v).into()]
+        };
+        let ([o_min, d_min], [o_max, d_max]) = (halves(lo), halves(hi));
+        Some(Frustum::from_extremes([o_min, o_max], [d_min, d_max], negative))
     }
 }
 
@@ -1203,7 +1216,31 @@ mod tests {
         #[test]
         fn vector_canonical_signs_are_each_rays_checks(rays in super::super::stream::tests::arb_run()) {
             let Some(simd) = V3::try_new() else { return Ok(()) };
-            prop_assert_eq!(canonical_signs(simd, &rays), super::super::stream::tests::each_rays_checks(&rays));
+            let frustum = canonical_frustum(simd, &rays);
+            prop_assert_eq!(frustum.map(|f| f.negative), super::super::stream::tests::each_rays_checks(&rays));
+        }
+
+        /// The frustum gathered with the checks is the one made from the rays, bit for bit: origins
+        /// anywhere (zeros of both signs among them), directions of one octant.
+        #[test]
+        fn vector_frustum_is_the_rays_frustum(
+            rays in prop::collection::vec(
+                (prop::array::uniform3(prop_oneof![Just(0.0f32), Just(-0.0f32), -8.0f32..8.0]), prop::array::uniform3(0.01f32..1.0)),
+                1..=64,
+            ),
+            signs in prop::array::uniform3(any::<bool>()),
+        ) {
+            let Some(simd) = V3::try_new() else { return Ok(()) };
+            let flip = Vec3A::from_array(signs.map(|s| if s { -1.0 } else { 1.0 }));
+            let rays: Vec<Ray> = rays
+                .iter()
+                .map(|(o, d)| Ray::new(Vec3A::from_array(*o), (Vec3A::from_array(*d) * flip).normalize()))
+                .collect();
+            let Some(negative) = super::super::stream::canonical_signs(&rays) else { return Ok(()) };
+            let vector = canonical_frustum(simd, &rays);
+            prop_assert!(vector.is_some());
+            // `Debug` writes every value exactly, zeros' signs included.
+            prop_assert_eq!(format!("{:?}", vector.unwrap()), format!("{:?}", Frustum::new(&rays, negative)));
         }
 
         /// The packet's eight-wide box test is the four-wide one on each half of the children.
@@ -1219,7 +1256,7 @@ mod tests {
             let flip = Vec3A::from_array(signs.map(|s| if s { -1.0 } else { 1.0 }));
             let rays: Vec<Ray> = dirs.iter().zip(origins.iter().cycle()).map(|(d, o)| Ray::new(Vec3A::from_array(*o), Vec3A::from_array(*d) * flip)).collect();
             let node = WideNode::<8>::of_boxes(&boxes);
-            let eight = simd.vectorize(|| Frustum8::new(simd, &rays, signs).intersect(&node, t_range.0, t_range.1));
+            let eight = simd.vectorize(|| Frustum8::new(simd, &Frustum::new(&rays, signs)).intersect(&node, t_range.0, t_range.1));
             let four = Frustum::new(&rays, signs);
             matches_halves(eight, &boxes, |node| four.intersect(node, t_range.0, t_range.1))?;
         }

@@ -56,14 +56,13 @@ pub(super) trait Kernel<const W: usize>: Filter {
         leaf: &mut L,
     );
 
-    /// Answers `query` for a packet of `rays` with the directions' signs `negative`
-    /// ([`stream::Leaves::answer`]).
+    /// Answers `query` for a packet of `rays` whose frustum is `frustum` ([`stream::Leaves::answer`]).
     fn answer_packet(
         self,
         tree: &WideTree<W>,
         tris: &Triangles,
         rays: &[Ray],
-        negative: [bool; 3],
+        frustum: &Frustum,
         query: PacketQuery<impl Report>,
     );
 }
@@ -89,17 +88,17 @@ impl Kernel<4> for Portable {
         tree: &WideTree<4>,
         tris: &Triangles,
         rays: &[Ray],
-        negative: [bool; 3],
+        frustum: &Frustum,
         query: PacketQuery<impl Report>,
     ) {
         let leaves = stream::Leaves {
             tree,
-            frustum: Frustum::new(rays, negative),
+            frustum: *frustum,
             filter: self,
             leaves: &tris.leaves,
             leaf_bounds: &tris.leaf_bounds,
         };
-        leaves.answer(rays, negative, query)
+        leaves.answer(rays, frustum.negative, query)
     }
 }
 
@@ -278,13 +277,14 @@ impl Triangles {
         }
     }
 
-    /// [`stream::canonical_signs`] of `rays`, by the kernel's instructions.
+    /// The frustum of `rays` if [`stream::canonical_signs`] finds they can walk as they are, by the
+    /// kernel's instructions.
     #[inline(always)]
-    pub fn canonical_signs(&self, rays: &[Ray]) -> Option<[bool; 3]> {
+    pub fn canonical_frustum(&self, rays: &[Ray]) -> Option<Frustum> {
         match &self.tree {
             #[cfg(target_arch = "x86_64")]
-            TriangleTree::Avx2(simd, _) => super::avx2::canonical_signs(*simd, rays),
-            _ => stream::canonical_signs(rays),
+            TriangleTree::Avx2(simd, _) => super::avx2::canonical_frustum(*simd, rays),
+            _ => stream::canonical_signs(rays).map(|negative| Frustum::new(rays, negative)),
         }
     }
 
@@ -326,9 +326,9 @@ impl Triangles {
         self.tree.visit(Occluded { tris: self, ray, t_max, tally })
     }
 
-    /// Answers `query` for a packet of `rays` with the directions' signs `negative`.
-    pub fn answer_packet(&self, rays: &[Ray], negative: [bool; 3], query: PacketQuery<impl Report>) {
-        self.tree.visit(Packet { tris: self, rays, negative, query })
+    /// Answers `query` for a packet of `rays` whose frustum is `frustum`.
+    pub fn answer_packet(&self, rays: &[Ray], frustum: &Frustum, query: PacketQuery<impl Report>) {
+        self.tree.visit(Packet { tris: self, rays, frustum, query })
     }
 }
 
@@ -412,7 +412,7 @@ impl<T: Tally> KernelVisitor for Occluded<'_, T> {
 struct Packet<'a, 'q, R> {
     tris: &'a Triangles,
     rays: &'a [Ray],
-    negative: [bool; 3],
+    frustum: &'a Frustum,
     query: PacketQuery<'q, R>,
 }
 
@@ -421,6 +421,6 @@ impl<R: Report> KernelVisitor for Packet<'_, '_, R> {
 
     #[inline(always)]
     fn visit<const W: usize, K: Kernel<W>>(self, kernel: K, tree: &WideTree<W>) {
-        kernel.answer_packet(tree, self.tris, self.rays, self.negative, self.query)
+        kernel.answer_packet(tree, self.tris, self.rays, self.frustum, self.query)
     }
 }

@@ -289,11 +289,12 @@ impl<P> Bvh<P> {
         self.triangles.is_some() || self.others.is_some()
     }
 
-    /// [`stream::canonical_signs`], by the triangles' kernel where there are triangles.
-    fn canonical_signs(&self, rays: &[Ray]) -> Option<[bool; 3]> {
+    /// The frustum of `rays` if [`stream::canonical_signs`] finds they can walk as they are, by the
+    /// triangles' kernel where there are triangles.
+    fn canonical_frustum(&self, rays: &[Ray]) -> Option<Frustum> {
         match &self.triangles {
-            Some(tris) => tris.canonical_signs(rays),
-            None => stream::canonical_signs(rays),
+            Some(tris) => tris.canonical_frustum(rays),
+            None => stream::canonical_signs(rays).map(|negative| Frustum::new(rays, negative)),
         }
     }
 
@@ -496,12 +497,12 @@ fn same_scale(rays: &[Ray]) -> Option<([Ray; stream::PACKET], f32)> {
 }
 
 impl<P: Intersect> Bvh<P> {
-    /// [`Accelerator::closest_hits`] for a packet of rays with the directions' signs `negative`.
+    /// [`Accelerator::closest_hits`] for a packet of rays whose frustum is `frustum`.
     fn closest_packet(
         &self,
         tris: Option<&Triangles>,
         rays: &[Ray],
-        negative: [bool; 3],
+        frustum: &Frustum,
         t_range: Interval,
         hits: &mut [Option<PrimitiveHit>],
     ) {
@@ -515,28 +516,25 @@ impl<P: Intersect> Bvh<P> {
                 *t = hit.map_or(t_range.max, |h| h.hit.t);
             }
         }
-        let frustum = Frustum::new(rays, negative);
         if let Some((tree, prims, ids)) = &self.others {
             let shapes = (&prims[..], &ids[..], &self.other_boxes[..]);
-            stream::closest_by_shapes(&frustum, tree, shapes, rays, negative, t_min, &mut t_max[..n], hits);
+            stream::closest_by_shapes(frustum, tree, shapes, rays, frustum.negative, t_min, &mut t_max[..n], hits);
         }
         let Some(tris) = tris else { return };
-        if self
-            .triangles_node
-            .is_none_or(|node| node.meets_packet(&frustum, t_min, reach(stream::largest(&t_max[..n]))))
+        if self.triangles_node.is_none_or(|node| node.meets_packet(frustum, t_min, reach(stream::largest(&t_max[..n]))))
         {
             let report = |i: usize, found| hits[i] = Some(tris.hit(found));
-            tris.answer_packet(rays, negative, PacketQuery::Closest { t_min, t_max: &t_max[..n], report });
+            tris.answer_packet(rays, frustum, PacketQuery::Closest { t_min, t_max: &t_max[..n], report });
         }
     }
 
-    /// [`Accelerator::occluded_each_within`] for a packet of rays with the directions' signs `negative`;
-    /// the shapes other than triangles as a packet too if `others_together`, else ray by ray.
+    /// [`Accelerator::occluded_each_within`] for a packet of rays whose frustum is `frustum`; the
+    /// shapes other than triangles as a packet too if `others_together`, else ray by ray.
     fn occluded_packet(
         &self,
         tris: Option<&Triangles>,
         rays: &[Ray],
-        negative: [bool; 3],
+        frustum: &Frustum,
         t_max: &[f32],
         occluded: &mut [bool],
         others_together: bool,
@@ -550,16 +548,16 @@ impl<P: Intersect> Bvh<P> {
                 *end = t;
             }
         }
-        let frustum = Frustum::new(rays, negative);
         if let Some(tris) = tris
-            && self.triangles_node.is_none_or(|node| node.meets_packet(&frustum, 0.0, reach(stream::largest(&ends))))
+            && self.triangles_node.is_none_or(|node| node.meets_packet(frustum, 0.0, reach(stream::largest(&ends))))
         {
             let query: PacketQuery<()> = PacketQuery::Occluded { t_max: &ends[..rays.len()], occluded };
-            tris.answer_packet(rays, negative, query);
+            tris.answer_packet(rays, frustum, query);
         }
         match &self.others {
             Some((tree, prims, _)) if others_together => {
-                stream::occluded_by_shapes(&frustum, tree, prims, &self.other_boxes, rays, negative, t_max, occluded);
+                let negative = frustum.negative;
+                stream::occluded_by_shapes(frustum, tree, prims, &self.other_boxes, rays, negative, t_max, occluded);
             }
             Some(_) => {
                 for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {
@@ -594,8 +592,8 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
             occluded_ray_by_ray(self, rays, t_max, occluded);
             return;
         }
-        if let Some(negative) = self.canonical_signs(rays) {
-            self.occluded_packet(tris, rays, negative, t_max, occluded, others_together);
+        if let Some(frustum) = self.canonical_frustum(rays) {
+            self.occluded_packet(tris, rays, &frustum, t_max, occluded, others_together);
             return;
         }
         let scaled = if same_signs(rays) { same_scale(rays) } else { None };
@@ -610,7 +608,8 @@ impl<P: Intersect + Sync + Send> Bvh<P> {
                 for (end, &t) in ends.iter_mut().zip(t_max) {
                     *end = Interval::new(0.0, t).on_canonical(*s).max;
                 }
-                self.occluded_packet(tris, canonical, negative, &ends[..rays.len()], occluded, others_together);
+                let frustum = Frustum::new(canonical, negative);
+                self.occluded_packet(tris, canonical, &frustum, &ends[..rays.len()], occluded, others_together);
             }
             None => occluded_ray_by_ray(self, rays, t_max, occluded),
         }
@@ -702,8 +701,8 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             let tris = self.triangles.as_ref();
             // Canonical rays (unit directions mostly are) walk as they are; others walk their
             // canonical forms when those share one scale.
-            if let Some(negative) = self.canonical_signs(rays) {
-                self.closest_packet(tris, rays, negative, t_range, hits);
+            if let Some(frustum) = self.canonical_frustum(rays) {
+                self.closest_packet(tris, rays, &frustum, t_range, hits);
                 continue;
             }
             let scaled = if same_signs(rays) { same_scale(rays) } else { None };
@@ -714,7 +713,8 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
             let canonical = &canonical[..rays.len()];
             match stream::common_signs(canonical) {
                 Some(negative) => {
-                    self.closest_packet(tris, canonical, negative, t_range.on_canonical(*s), hits);
+                    let frustum = Frustum::new(canonical, negative);
+                    self.closest_packet(tris, canonical, &frustum, t_range.on_canonical(*s), hits);
                     for h in hits.iter_mut().flatten() {
                         h.hit.t *= s;
                     }

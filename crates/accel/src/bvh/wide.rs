@@ -322,6 +322,14 @@ impl Frustum {
             d_min = d_min.min(ray.dir);
             d_max = d_max.max(ray.dir);
         }
+        Self::from_extremes([o_min, o_max], [d_min, d_max], negative)
+    }
+
+    /// The packet of rays whose origins range over `[o_min, o_max]` and directions over
+    /// `[d_min, d_max]` (each the minimum or maximum of the rays' coordinates as [`Frustum::new`]
+    /// takes them, in the rays' order), with the signs `negative`.
+    #[inline(always)]
+    pub fn from_extremes([o_min, o_max]: [Vec3A; 2], [d_min, d_max]: [Vec3A; 2], negative: [bool; 3]) -> Self {
         // The rays' reciprocals range between those of the extreme directions: on each side of zero
         // (each axis's components share a sign and none is zero) `1 / d` falls as `d` grows, rounding
         // included, and the far planes' factor is positive. So these are the smallest and largest of
