@@ -27,9 +27,14 @@ fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
     let img = image::ImageReader::open(path)?.with_guessed_format()?.decode()?.into_rgb8();
     let (width, height) = img.dimensions();
     let mut texels = Vec::with_capacity(width as usize * height as usize);
+    // Each byte's value `b / 255`, formed once: the same f32 as dividing each texel, without a division
+    // per channel (a face holds four million of them).
+    let linear: [f32; 256] = std::array::from_fn(|b| b as f32 / 255.0);
     // Row 0 of the face is the image's bottom row.
     for row in img.as_raw().chunks_exact(width as usize * 3).rev() {
-        texels.extend(row.chunks_exact(3).map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0));
+        texels.extend(
+            row.chunks_exact(3).map(|p| Vec3::new(linear[p[0] as usize], linear[p[1] as usize], linear[p[2] as usize])),
+        );
     }
     Ok(CubemapFace { width, height, texels })
 }
