@@ -542,10 +542,18 @@ impl<P: Intersect> Bvh<P> {
         // Planes first, as the single-ray query does; rays they occlude leave the walk, and so do rays
         // with a NaN end, which nothing occludes.
         let mut ends = [f32::NEG_INFINITY; stream::PACKET];
-        for (((ray, o), end), &t) in rays.iter().zip(occluded.iter_mut()).zip(&mut ends).zip(t_max) {
-            *o = !t.is_nan() && self.unbounded.iter().any(|(p, _)| p.occluded_canonical(ray, t));
-            if !*o && !t.is_nan() {
-                *end = t;
+        if self.unbounded.is_empty() {
+            // No planes: every ray walks but those with a NaN end, in a loop without branches.
+            occluded.fill(false);
+            for (end, &t) in ends.iter_mut().zip(t_max) {
+                *end = if t.is_nan() { f32::NEG_INFINITY } else { t };
+            }
+        } else {
+            for (((ray, o), end), &t) in rays.iter().zip(occluded.iter_mut()).zip(&mut ends).zip(t_max) {
+                *o = !t.is_nan() && self.unbounded.iter().any(|(p, _)| p.occluded_canonical(ray, t));
+                if !*o && !t.is_nan() {
+                    *end = t;
+                }
             }
         }
         if let Some(tris) = tris
