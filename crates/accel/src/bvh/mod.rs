@@ -91,7 +91,7 @@ pub struct Bvh<P> {
     /// With [`Bvh::flat_others`], where every one of those shapes is a sphere: the spheres, each ray
     /// finding its roots on all of them at once instead of testing them box by box.
     flat_spheres: Option<SphereLanes>,
-    /// Where the triangles' kernel is AVX2: its token, under which the other shapes' tests run too.
+    /// Where the BVH's kernel is AVX2: its token, under which the few spheres' roots are found too.
     avx2: Avx2,
     /// Where other shapes lie outside the box around the triangles (or planes run past it): that box. Rays from those shapes, or bounded by their hits, often miss
     /// it, and skip the triangles' walk, whose setup costs more than this one test; where every other
