@@ -284,7 +284,7 @@ impl Triangles {
         match &self.tree {
             #[cfg(target_arch = "x86_64")]
             TriangleTree::Avx2(simd, _) => super::avx2::canonical_frustum(*simd, rays),
-            _ => stream::canonical_signs(rays).map(|negative| Frustum::new(rays, negative)),
+            _ => stream::canonical_frustum(rays),
         }
     }
 

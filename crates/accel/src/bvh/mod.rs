@@ -294,7 +294,7 @@ impl<P> Bvh<P> {
     fn canonical_frustum(&self, rays: &[Ray]) -> Option<Frustum> {
         match &self.triangles {
             Some(tris) => tris.canonical_frustum(rays),
-            None => stream::canonical_signs(rays).map(|negative| Frustum::new(rays, negative)),
+            None => stream::canonical_frustum(rays),
         }
     }
 
@@ -518,7 +518,7 @@ impl<P: Intersect> Bvh<P> {
         }
         if let Some((tree, prims, ids)) = &self.others {
             let shapes = (&prims[..], &ids[..], &self.other_boxes[..]);
-            stream::closest_by_shapes(frustum, tree, shapes, rays, frustum.negative, t_min, &mut t_max[..n], hits);
+            stream::closest_by_shapes(frustum, tree, shapes, rays, t_min, &mut t_max[..n], hits);
         }
         let Some(tris) = tris else { return };
         if self.triangles_node.is_none_or(|node| node.meets_packet(frustum, t_min, reach(stream::largest(&t_max[..n]))))
@@ -564,8 +564,7 @@ impl<P: Intersect> Bvh<P> {
         }
         match &self.others {
             Some((tree, prims, _)) if others_together => {
-                let negative = frustum.negative;
-                stream::occluded_by_shapes(frustum, tree, prims, &self.other_boxes, rays, negative, t_max, occluded);
+                stream::occluded_by_shapes(frustum, tree, prims, &self.other_boxes, rays, t_max, occluded);
             }
             Some(_) => {
                 for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {

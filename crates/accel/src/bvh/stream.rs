@@ -64,6 +64,12 @@ pub(super) fn canonical_signs(rays: &[Ray]) -> Option<[bool; 3]> {
     ])
 }
 
+/// The [`Frustum`] of `rays` if [`canonical_signs`] finds they can walk as they are: the portable
+/// kernel's (the AVX2 one gathers both in one pass).
+pub(super) fn canonical_frustum(rays: &[Ray]) -> Option<Frustum> {
+    canonical_signs(rays).map(|negative| Frustum::new(rays, negative))
+}
+
 /// Four rays of a packet, lane by lane, for the box test of a leaf: each lane's answer is the one
 /// [`BoxRay`](super::wide::BoxRay) gives that ray, with the same operations.
 #[derive(Clone, Copy, Debug)]
@@ -191,11 +197,24 @@ pub(super) struct Block<'a, K> {
 /// tested, its ray is retired from the start.
 const NO_FRAME: ShearedRay = ShearedRay { origin: Vec3A::ZERO, dir: Vec3A::Z, axes: [0, 1, 2], shear: [0.0, 0.0, 1.0] };
 
+/// `[$f(0, args), $f(1, args), …]`: one call per group of a packet, an array literal of calls to an
+/// `#[inline(always)]` function, so that each group is written in place (`array::from_fn`'s closure
+/// compiles out of line, outside the AVX2 function, and its groups are copied into place).
+macro_rules! per_group {
+    ($f:ident($($arg:expr),*)) => {{
+        const _: () = assert!(GROUPS == 16, "one call per group");
+        [$f(0, $($arg),*), $f(1, $($arg),*), $f(2, $($arg),*), $f(3, $($arg),*), $f(4, $($arg),*),
+         $f(5, $($arg),*), $f(6, $($arg),*), $f(7, $($arg),*), $f(8, $($arg),*), $f(9, $($arg),*),
+         $f(10, $($arg),*), $f(11, $($arg),*), $f(12, $($arg),*), $f(13, $($arg),*), $f(14, $($arg),*),
+         $f(15, $($arg),*)]
+    }};
+}
+
 /// Group `g` of a packet's `rays` with its rays' frames written into `sheared` and, for a ray
 /// without one, its end of range into `ends`; a group past the rays, never tested, repeats the first
 /// ray.
 #[inline(always)]
-fn frame_group(rays: &[Ray], g: usize, sheared: &mut [ShearedRay; PACKET], ends: &mut [f32; PACKET]) -> FrameGroup {
+fn frame_group(g: usize, rays: &[Ray], sheared: &mut [ShearedRay; PACKET], ends: &mut [f32; PACKET]) -> FrameGroup {
     let Some(rays) = rays.get(4 * g..).filter(|rest| !rest.is_empty()) else {
         return FrameGroup { rays: RayGroup::new(&rays[..1]), shear: [Vec4::ZERO; 3] };
     };
@@ -212,15 +231,7 @@ impl<'a, K: Copy> Rays<'a, K> {
         let mut ends = [f32::NEG_INFINITY; PACKET];
         ends[..rays.len()].copy_from_slice(t_max);
         let mut sheared = [NO_FRAME; PACKET];
-        // Each group is written once, in place: an array literal of inlined calls (`array::from_fn`'s
-        // closure compiles out of line, outside the AVX2 function, its groups copied into place).
-        macro_rules! groups {
-            ($($g:literal)*) => {
-                [$(frame_group(rays, $g, &mut sheared, &mut ends)),*]
-            };
-        }
-        const _: () = assert!(GROUPS == 16, "one literal per group");
-        let groups = groups!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
+        let groups = per_group!(frame_group(rays, &mut sheared, &mut ends));
         Self { rays, groups, t_max: ends, sheared, kept: [kept; PACKET] }
     }
 
@@ -302,7 +313,6 @@ pub(super) fn occluded_by_shapes<P: Intersect>(
     prims: &[P],
     boxes: &[[f32; 6]],
     rays: &[Ray],
-    negative: [bool; 3],
     t_max: &[f32],
     occluded: &mut [bool],
 ) {
@@ -321,7 +331,7 @@ pub(super) fn occluded_by_shapes<P: Intersect>(
     let mut leaf = |leaf: u32, _: f32, _: &mut ()| {
         let (first, count) = leaf_range(leaf);
         let shapes = &prims[first..first + count];
-        let (near_plane, far_plane) = leaf_planes(&boxes[first..first + count], negative);
+        let (near_plane, far_plane) = leaf_planes(&boxes[first..first + count], frustum.negative);
         let mut largest_end = Vec4::NEG_INFINITY;
         for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
             let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
@@ -365,7 +375,6 @@ pub(super) fn closest_by_shapes<P: Intersect>(
     tree: &WideTree<4>,
     (prims, ids, boxes): (&[P], &[u32], &[[f32; 6]]),
     rays: &[Ray],
-    negative: [bool; 3],
     t_min: f32,
     t_max: &mut [f32],
     hits: &mut [Option<PrimitiveHit>],
@@ -378,7 +387,7 @@ pub(super) fn closest_by_shapes<P: Intersect>(
     let start = largest(&ends[..n]);
     let mut leaf = |leaf: u32, _: f32, _: &mut ()| {
         let (first, count) = leaf_range(leaf);
-        let (near_plane, far_plane) = leaf_planes(&boxes[first..first + count], negative);
+        let (near_plane, far_plane) = leaf_planes(&boxes[first..first + count], frustum.negative);
         let mut largest_end = Vec4::NEG_INFINITY;
         for (g, group) in groups[..n.div_ceil(4)].iter().enumerate() {
             let lanes = Vec4::from_slice(&ends[4 * g..4 * g + 4]);
@@ -419,19 +428,14 @@ pub(super) fn closest_by_shapes<P: Intersect>(
 /// repeat the first ray: each group is written once, with no clearing of the array first.
 #[inline(always)]
 fn ray_groups(rays: &[Ray]) -> [RayGroup; GROUPS] {
-    let group = |g: usize| {
-        let group = rays.get(4 * g..).filter(|rest| !rest.is_empty()).unwrap_or(&rays[..1]);
-        RayGroup::new(&group[..group.len().min(4)])
-    };
-    // An array literal rather than `array::from_fn`, whose closure compiles out of line (see
-    // `Rays::new`).
-    macro_rules! groups {
-        ($($g:literal)*) => {
-            [$(group($g)),*]
-        };
-    }
-    const _: () = assert!(GROUPS == 16, "one literal per group");
-    groups!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15)
+    per_group!(ray_group(rays))
+}
+
+/// Group `g` of a packet's `rays`, or the first ray repeated past them.
+#[inline(always)]
+fn ray_group(g: usize, rays: &[Ray]) -> RayGroup {
+    let group = rays.get(4 * g..).filter(|rest| !rest.is_empty()).unwrap_or(&rays[..1]);
+    RayGroup::new(&group[..group.len().min(4)])
 }
 
 /// The near and far planes, by the rays' signs `negative`, of the box around `boxes` (`[min, max]`
