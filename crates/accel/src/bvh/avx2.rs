@@ -347,51 +347,79 @@ impl pulp::NullaryFnOnce for CanonicalFrustum<'_> {
 
     #[inline(always)]
     fn call(self) -> Option<Frustum> {
-        let avx = self.simd.avx;
+        let (avx, sse) = (self.simd.avx, self.simd.sse);
         let first = self.rays.first()?;
-        // Lanes 0-2: the origin; 4-6: the direction (lanes 3 and 7 are left out).
-        let both = |r: &Ray| avx._mm256_set_m128(r.dir.into(), r.origin.into());
-        let splat_halves = |lo: f32, hi: f32| avx._mm256_setr_ps(lo, lo, lo, lo, hi, hi, hi, hi);
-        // An origin is finite; a direction's components are at least the smallest normal and below
-        // 1 in magnitude, the largest reaching 0.5 (canonical, inside `Ray::is_valid`'s range, finite).
+        // Two rays at a time: the origins of both in one register, their directions in another (the
+        // first ray in lanes 0-2, the second in 4-6; lanes 3 and 7 are left out).
+        let two = |a: raylume_geometry::Vec3A, b: raylume_geometry::Vec3A| avx._mm256_set_m128(b.into(), a.into());
+        let splat = |x: f32| avx._mm256_set1_ps(x);
+        let sign = splat(-0.0);
+        let first_dirs = two(first.dir, first.dir);
+        let all = avx._mm256_castsi256_ps(avx._mm256_set1_epi32(-1));
+        // An origin is finite; a direction's components are at least the smallest normal and below 1
+        // in magnitude, the largest reaching 0.5 (canonical, inside `Ray::is_valid`'s range, finite).
         // The comparisons fail on NaN.
-        let below = splat_halves(f32::INFINITY, 1.0);
-        let from = splat_halves(f32::NEG_INFINITY, f32::MIN_POSITIVE);
-        let half = avx._mm256_set1_ps(0.5);
-        let sign = avx._mm256_set1_ps(-0.0);
-        let first_both = both(first);
-        let (mut in_range, mut other_signs) =
-            (avx._mm256_castsi256_ps(avx._mm256_set1_epi32(-1)), avx._mm256_setzero_ps());
-        let (mut reaches_half, mut time_nan) = (true, false);
-        // The extremes of the origins (low half) and directions (high half), as `Frustum::new` takes
-        // them: `minps` and `maxps` with the running value first.
-        let (mut lo, mut hi) = (avx._mm256_set1_ps(f32::INFINITY), avx._mm256_set1_ps(f32::NEG_INFINITY));
-        for r in self.rays {
-            let v = both(r);
-            lo = avx._mm256_min_ps(lo, v);
-            hi = avx._mm256_max_ps(hi, v);
-            let a = avx._mm256_andnot_ps(sign, v);
-            let inside =
-                avx._mm256_and_ps(avx._mm256_cmp_ps::<_CMP_LT_OQ>(a, below), avx._mm256_cmp_ps::<_CMP_GE_OQ>(a, from));
-            in_range = avx._mm256_and_ps(in_range, inside);
-            // Every component of a direction within range is non-zero: its sign bit is its sign.
-            other_signs = avx._mm256_or_ps(other_signs, avx._mm256_xor_ps(v, first_both));
-            reaches_half &= avx._mm256_movemask_ps(avx._mm256_cmp_ps::<_CMP_GE_OQ>(a, half)) & 0x70 != 0;
-            time_nan |= r.time.is_nan();
+        let (mut finite, mut in_range, mut reaches_half, mut other_signs) = (all, all, all, avx._mm256_setzero_ps());
+        let mut time_nan = sse._mm_setzero_ps();
+        // The extremes of the origins and of the directions, each half over its own rays.
+        let (mut o_lo, mut o_hi) = (splat(f32::INFINITY), splat(f32::NEG_INFINITY));
+        let (mut d_lo, mut d_hi) = (o_lo, o_hi);
+        // No closures here (see `Walk`).
+        macro_rules! gather {
+            ($a:expr, $b:expr) => {{
+                let (a, b): (&Ray, &Ray) = ($a, $b);
+                let (o, d) = (two(a.origin, b.origin), two(a.dir, b.dir));
+                o_lo = avx._mm256_min_ps(o_lo, o);
+                o_hi = avx._mm256_max_ps(o_hi, o);
+                d_lo = avx._mm256_min_ps(d_lo, d);
+                d_hi = avx._mm256_max_ps(d_hi, d);
+                finite = avx._mm256_and_ps(
+                    finite,
+                    avx._mm256_cmp_ps::<_CMP_LT_OQ>(avx._mm256_andnot_ps(sign, o), splat(f32::INFINITY)),
+                );
+                let m = avx._mm256_andnot_ps(sign, d);
+                let inside = avx._mm256_and_ps(
+                    avx._mm256_cmp_ps::<_CMP_LT_OQ>(m, splat(1.0)),
+                    avx._mm256_cmp_ps::<_CMP_GE_OQ>(m, splat(f32::MIN_POSITIVE)),
+                );
+                in_range = avx._mm256_and_ps(in_range, inside);
+                // Every component of a direction within range is non-zero: its sign bit is its sign.
+                other_signs = avx._mm256_or_ps(other_signs, avx._mm256_xor_ps(d, first_dirs));
+                // Lane 0 of each half: whether any of the ray's three components reaches 0.5.
+                let half = avx._mm256_cmp_ps::<_CMP_GE_OQ>(m, splat(0.5));
+                let any = avx._mm256_or_ps(
+                    avx._mm256_or_ps(half, avx._mm256_permute_ps::<0b00_00_00_01>(half)),
+                    avx._mm256_permute_ps::<0b00_00_00_10>(half),
+                );
+                reaches_half = avx._mm256_and_ps(reaches_half, any);
+                let times = sse._mm_cmpunord_ss(sse._mm_set_ss(a.time), sse._mm_set_ss(b.time));
+                time_nan = sse._mm_or_ps(time_nan, times);
+            }};
         }
-        let ok = avx._mm256_movemask_ps(in_range) & 0x77 == 0x77
-            && avx._mm256_movemask_ps(avx._mm256_and_ps(other_signs, sign)) & 0x70 == 0
-            && reaches_half
-            && !time_nan;
+        let pairs = self.rays.chunks_exact(2);
+        let last = pairs.remainder().first();
+        for pair in pairs {
+            gather!(&pair[0], &pair[1]);
+        }
+        if let Some(r) = last {
+            gather!(r, r);
+        }
+        let ok = avx._mm256_movemask_ps(avx._mm256_and_ps(finite, in_range)) & 0x77 == 0x77
+            && avx._mm256_movemask_ps(avx._mm256_and_ps(other_signs, sign)) & 0x77 == 0
+            && avx._mm256_movemask_ps(reaches_half) & 0x11 == 0x11
+            && sse._mm_movemask_ps(time_nan) & 1 == 0;
         if !ok {
             return None;
         }
         let signs = first.dir.cmplt(raylume_geometry::Vec3A::ZERO).bitmask();
         let negative = [signs & 1 != 0, signs & 2 != 0, signs & 4 != 0];
-        let halves = |v: __m256| -> [raylume_geometry::Vec3A; 2] {
-            [avx._mm256_castps256_ps128(v).into(), avx._mm256_extractf128_ps::<1>(v).into()]
-        };
-        let ([o_min, d_min], [o_max, d_max]) = (halves(lo), halves(hi));
+        // Both halves' extremes folded into one.
+        let low = |v: __m256| avx._mm256_castps256_ps128(v);
+        let high = |v: __m256| avx._mm256_extractf128_ps::<1>(v);
+        let o_min = sse._mm_min_ps(low(o_lo), high(o_lo)).into();
+        let o_max = sse._mm_max_ps(low(o_hi), high(o_hi)).into();
+        let d_min = sse._mm_min_ps(low(d_lo), high(d_lo)).into();
+        let d_max = sse._mm_max_ps(low(d_hi), high(d_hi)).into();
         Some(Frustum::from_extremes([o_min, o_max], [d_min, d_max], negative))
     }
 }

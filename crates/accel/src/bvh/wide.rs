@@ -326,8 +326,8 @@ impl Frustum {
     }
 
     /// The packet of rays whose origins range over `[o_min, o_max]` and directions over
-    /// `[d_min, d_max]` (each the minimum or maximum of the rays' coordinates as [`Frustum::new`]
-    /// takes them, in the rays' order), with the signs `negative`.
+    /// `[d_min, d_max]` (each the minimum or maximum of the rays' coordinates, in any order), with the
+    /// signs `negative`.
     #[inline(always)]
     pub fn from_extremes([o_min, o_max]: [Vec3A; 2], [d_min, d_max]: [Vec3A; 2], negative: [bool; 3]) -> Self {
         // The rays' reciprocals range between those of the extreme directions: on each side of zero
@@ -336,7 +336,9 @@ impl Frustum {
         // the rays' own `reciprocals`, bit for bit, for two divisions instead of one per ray.
         let (near_min, far_min) = reciprocals(d_max);
         let (near_max, far_max) = reciprocals(d_min);
-        let (o_min, o_max) = (o_min.to_array(), o_max.to_array());
+        // Zeros of either sign made positive, so that the frustum does not depend on the order in
+        // which the extremes were gathered (`minps` of two zeros gives its second operand).
+        let (o_min, o_max) = ((o_min + Vec3A::ZERO).to_array(), (o_max + Vec3A::ZERO).to_array());
         let (near_min, near_max, far_min, far_max) =
             (near_min.to_array(), near_max.to_array(), far_min.to_array(), far_max.to_array());
         // Along a positive direction the entry distance falls as the origin moves up the axis; along a
