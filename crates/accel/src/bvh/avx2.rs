@@ -991,27 +991,58 @@ impl Exact for ClosestBlock<'_, '_> {
             let Some((e, Verdict { hit, open, t, delta_t, inv })) = frame.verdict(leaf, j, lanes, min, t_max) else {
                 continue;
             };
-            if hit | open == 0 {
-                continue;
-            }
-            let decided: [f32; 8] =
-                if hit != 0 { pulp::cast(decided_distances_of_rays(simd, leaf, j, groups, t, hit)) } else { [0.0; 8] };
-            let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
-            let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
             let bit = j as u32;
-            for lane in set_bits(hit | open) {
+            // The lanes the verdict leaves open: the scalar test.
+            for lane in set_bits(open) {
                 let l = lane as usize;
                 let mut range = Interval::new(t_min, t_max[l]);
-                let mut test =
-                    Candidates { leaf, leaves, first, lanes: 0, ray: &sheared[l], range, found: &mut kept[l] };
-                if open & (1 << lane) != 0 {
-                    test.decide(bit, &mut range);
-                } else if t[l] - delta_t[l] <= range.max {
-                    let t = decided[l];
-                    if range.contains(t) && t > 0.0 {
-                        test.keep(bit, TriangleHit { t, b: [b[0][l], b[1][l], b[2][l]] }, &mut range);
-                    }
-                }
+                Candidates { leaf, leaves, first, lanes: 0, ray: &sheared[l], range, found: &mut kept[l] }
+                    .decide(bit, &mut range);
+                t_max[l] = range.max;
+            }
+            if hit == 0 {
+                continue;
+            }
+            // The accepted lanes, as `Candidates::keep` takes them, for all lanes at once: within the
+            // distance's bound of the range, the reported distance in the range, finite and positive.
+            let decided = decided_distances_of_rays(simd, leaf, j, groups, t, hit);
+            let mut ends = [0.0; 8];
+            ends.copy_from_slice(&t_max[..8]);
+            let ends: __m256 = pulp::cast(ends);
+            // No closures here (see `Walk`).
+            macro_rules! lanes {
+                ($cmp:ident, $a:expr, $b:expr) => {
+                    avx._mm256_movemask_ps(avx._mm256_cmp_ps::<$cmp>($a, $b)) as u32
+                };
+            }
+            let accepted = hit
+                & lanes!(_CMP_LE_OQ, avx._mm256_sub_ps(t, delta_t), ends)
+                & lanes!(_CMP_LE_OQ, min, decided)
+                & lanes!(_CMP_LE_OQ, decided, ends)
+                & lanes!(_CMP_LT_OQ, decided, avx._mm256_set1_ps(f32::INFINITY))
+                & lanes!(_CMP_LT_OQ, avx._mm256_setzero_ps(), decided);
+            if accepted == 0 {
+                continue;
+            }
+            // A lane's range ends at its closest hit so far, if it has one: a distance below that end
+            // wins outright; one at it goes to the ids.
+            let closer = accepted & lanes!(_CMP_LT_OQ, decided, ends);
+            let decided: [f32; 8] = pulp::cast(decided);
+            let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
+            let hit_of = |l: usize| TriangleHit { t: decided[l], b: [b[0][l], b[1][l], b[2][l]] };
+            for lane in set_bits(closer) {
+                let l = lane as usize;
+                kept[l] = Some((hit_of(l), first as u32, bit));
+                t_max[l] = decided[l];
+            }
+            for lane in set_bits(accepted & !closer) {
+                let l = lane as usize;
+                let mut range = Interval::new(t_min, t_max[l]);
+                Candidates { leaf, leaves, first, lanes: 0, ray: &sheared[l], range, found: &mut kept[l] }.keep(
+                    bit,
+                    hit_of(l),
+                    &mut range,
+                );
                 t_max[l] = range.max;
             }
         }
