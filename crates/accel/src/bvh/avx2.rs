@@ -963,10 +963,10 @@ fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGro
 }
 
 /// [`Filter::closest_in_block`]: each triangle of the leaf in turn for all the block's rays at once, its
-/// edge functions and [`Verdict`] lane by lane, then for each ray it may hit, in turn, what
-/// [`closest_of_candidates`] does with that lane: each ray takes the leaf's triangles in the order its
-/// own test takes them, each decided as the scalar test decides it within the ray's range at that
-/// point, so each ray's answer is its own test's, bit for bit.
+/// edge functions and [`Verdict`] lane by lane, then what [`closest_of_candidates`] does with each ray's
+/// lane (the accepted lanes' checks eight at a time, the open lanes and ties one by one): each ray takes
+/// the leaf's triangles in the order its own test takes them, each decided as the scalar test decides it
+/// within the ray's range at that point, so each ray's answer is its own test's, bit for bit.
 struct ClosestBlock<'a, 'b> {
     simd: V3,
     leaves: &'a [Leaf],
