@@ -5,6 +5,8 @@
     valgrind --tool=callgrind --callgrind-out-file=F raylume render SCENE --threads 1 ...
     python3 tools/render_phases.py F [F ...]
 
+Profiles recorded with `--dump-instr=yes` (for a look at the hot instructions) are read as well.
+
 A phase made of whole functions counts their inclusive cost (each call edge's cost as callgrind
 records it); the render loop's own functions, whose callees are mostly inlined, count each line of
 their self cost by the source file and line it comes from. Lines of the standard library or glam count
@@ -23,7 +25,10 @@ def read(path):
     names = {'fl': {}, 'fn': {}}
     entries, calls = [], collections.Counter()
     fn = fl = fi = cfn = None
-    pending, last = False, 0
+    pending = False
+    # Position columns: `line`, or `instr line` for a profile recorded with `--dump-instr=yes`; each
+    # absolute, relative to the same column of the line before (`+n`, `-n`) or the same (`*`).
+    columns, last = 1, [0]
 
     def ref(kind, rest):
         m = re.match(r'\((\d+)\)(?: (.*))?', rest)
@@ -37,11 +42,18 @@ def read(path):
         line = raw.rstrip('\n')
         if not line or line[0] == '#':
             continue
+        if line.startswith('positions:'):
+            columns = len(line.split()) - 1
+            last = [0] * columns
+            continue
         if line[0].isdigit() or line[0] in '+-*':
             p = line.split()
-            ln = last if p[0] == '*' else (last + int(p[0]) if p[0][0] in '+-' else int(p[0]))
-            last = ln
-            cost = int(p[1]) if len(p) > 1 else 0
+            for c in range(min(columns, len(p))):
+                t = p[c]
+                if t != '*':
+                    last[c] = last[c] + int(t, 0) if t[0] in '+-' else int(t, 0)
+            ln = last[columns - 1]
+            cost = int(p[columns]) if len(p) > columns else 0
             if pending:
                 calls[(fn, cfn)] += cost
                 pending = False
