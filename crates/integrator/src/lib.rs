@@ -36,7 +36,7 @@ mod render;
 pub mod sampler;
 mod whitted;
 
-pub use background::{Background, Cubemap, CubemapFace};
+pub use background::{Background, Cubemap, CubemapFace, Texels};
 pub use estimate::{Accumulator, Estimate, REL_MSE_EPS};
 pub use film::{
     Extras, Film, ImageFormat, InputError, MAX_IMAGE_PIXELS, MetaValue, OutputError, Window, remove_partial_outputs,

@@ -1,12 +1,11 @@
 use std::path::Path;
 
-use raylume_geometry::Vec3;
-use raylume_integrator::{Cubemap, CubemapFace};
+use raylume_integrator::{Cubemap, CubemapFace, Texels};
 use raylume_scene::{SceneError, cubemap_faces};
 
 /// Finds the cubemap folder `name` in the first of `search_dirs` that holds it
 /// ([`raylume_scene::find_cubemap`]) and decodes its six faces (`right left top bottom front back`,
-/// `.jpg` or `.png`) to linear colours in [0, 1].
+/// `.jpg` or `.png`), each texel kept as its three bytes ([`Texels::Rgb8`]).
 ///
 /// ```
 /// let err = raylume_render::load_cubemap("no such cubemap", &[std::env::temp_dir()]).unwrap_err();
@@ -26,15 +25,10 @@ pub fn load_cubemap(name: &str, search_dirs: &[impl AsRef<Path>]) -> Result<Cube
 fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
     let img = image::ImageReader::open(path)?.with_guessed_format()?.decode()?.into_rgb8();
     let (width, height) = img.dimensions();
-    let mut texels = Vec::with_capacity(width as usize * height as usize);
-    // Each byte's value `b / 255`, formed once: the same f32 as dividing each texel, without a division
-    // per channel (a face holds four million of them).
-    let linear: [f32; 256] = std::array::from_fn(|b| b as f32 / 255.0);
+    let mut texels = Vec::with_capacity(img.as_raw().len());
     // Row 0 of the face is the image's bottom row.
     for row in img.as_raw().chunks_exact(width as usize * 3).rev() {
-        texels.extend(
-            row.chunks_exact(3).map(|p| Vec3::new(linear[p[0] as usize], linear[p[1] as usize], linear[p[2] as usize])),
-        );
+        texels.extend_from_slice(row);
     }
-    Ok(CubemapFace { width, height, texels })
+    Ok(CubemapFace { width, height, texels: Texels::Rgb8(texels) })
 }
