@@ -66,7 +66,7 @@ const BYTE_VALUES: [f32; 256] = {
 
 impl Texels {
     /// The linear colour of texel `i`.
-    #[inline(always)]
+    #[inline]
     pub fn linear(&self, i: usize) -> Vec3 {
         match self {
             Texels::Rgb8(bytes) => {
