@@ -54,12 +54,17 @@ pub(super) struct BuildItem {
 /// Builds the binary tree over `items` (reordering them into leaf order): its nodes, the root first. Leaves hold at most
 /// `max_leaf` items; the SAH counts a leaf's cost in blocks of `block` items (a leaf of triangles is
 /// tested four at a time).
+///
+/// Subtrees of at least [`PARALLEL_ITEMS`] items build their two children side by side on the
+/// current rayon thread pool; the nodes are then laid out as the one-thread build lays them out, so
+/// the tree is the same whatever the number of threads.
 pub(super) fn build_binary(items: &mut [BuildItem], method: BvhBuild, block: usize, max_leaf: usize) -> Vec<Node> {
     let mut nodes = Vec::with_capacity((2 * items.len()).max(1));
     if !items.is_empty() {
         nodes.push(PLACEHOLDER);
         let params = Params { method, block, max_leaf };
-        build(items, &mut nodes, 0, 0, 0, &params);
+        let subtree = build_subtree(items, 0, 0, &params);
+        subtree.lay_out(&mut nodes, 0);
     }
     nodes
 }
@@ -73,11 +78,75 @@ struct Params {
 /// Depth past which splits are object medians, so the depth stays bounded (below 70) for any input.
 const MEDIAN_DEPTH: usize = 36;
 
+/// Fewest items whose two children are built side by side: below, a subtree is built on one thread
+/// (a split's binning over fewer items costs less than handing it to another thread).
+pub(super) const PARALLEL_ITEMS: usize = 16 * 1024;
+
+/// A subtree built on its own: the nodes of a subtree built on one thread (its root first, children
+/// indexed within them), or a split whose children were built side by side.
+enum Subtree {
+    Serial(Vec<Node>),
+    Split(Node, Box<[Subtree; 2]>),
+}
+
+impl Subtree {
+    /// Writes the subtree's root into `nodes[slot]` and appends its other nodes in the order in which
+    /// [`build`] appends them.
+    fn lay_out(self, nodes: &mut Vec<Node>, slot: usize) {
+        match self {
+            Subtree::Serial(local) => {
+                // Local node `i > 0` lands at `base + i - 1`.
+                let base = nodes.len();
+                let place = |node: Node| match node.count {
+                    0 => Node { offset: node.offset + base as u32 - 1, ..node },
+                    _ => node,
+                };
+                nodes[slot] = place(local[0]);
+                nodes.extend(local[1..].iter().map(|&n| place(n)));
+            }
+            Subtree::Split(node, children) => {
+                let left = nodes.len();
+                nodes.extend([PLACEHOLDER; 2]);
+                nodes[slot] = Node { offset: left as u32, count: 0, ..node };
+                let [l, r] = *children;
+                l.lay_out(nodes, left);
+                r.lay_out(nodes, left + 1);
+            }
+        }
+    }
+}
+
+/// The subtree over `items` (which start at primitive `first`) at `depth`.
+fn build_subtree(items: &mut [BuildItem], first: usize, depth: usize, params: &Params) -> Subtree {
+    if items.len() < PARALLEL_ITEMS {
+        let mut local = Vec::with_capacity(2 * items.len());
+        local.push(PLACEHOLDER);
+        build(items, &mut local, 0, first, depth, params);
+        return Subtree::Serial(local);
+    }
+    let (node, split) = node_and_split(items, first, depth, params);
+    let Some(mid) = split else { return Subtree::Serial(vec![node]) };
+    let (l, r) = items.split_at_mut(mid);
+    let (l, r) =
+        rayon::join(|| build_subtree(l, first, depth + 1, params), || build_subtree(r, first + mid, depth + 1, params));
+    Subtree::Split(node, Box::new([l, r]))
+}
+
 /// Fills the preallocated node `me` from `items` (which start at primitive `first`): a leaf, or an
 /// inner node whose two children are allocated next to each other and built recursively.
 fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize, depth: usize, params: &Params) {
+    let (node, split) = node_and_split(items, first, depth, params);
+    nodes[me] = node;
+    if let Some(mid) = split {
+        finish_inner(items, nodes, me, first, depth, params, mid);
+    }
+}
+
+/// The leaf over `items` (which start at primitive `first`) and, if they are to be split, the number
+/// of them (reordered) that go to the first child.
+fn node_and_split(items: &mut [BuildItem], first: usize, depth: usize, params: &Params) -> (Node, Option<usize>) {
     let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
-    nodes[me] = Node {
+    let node = Node {
         min: bounds.min.to_array(),
         offset: first as u32,
         max: bounds.max.to_array(),
@@ -85,31 +154,31 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize
     };
     let n = items.len();
     if n <= 1 {
-        return;
+        return (node, None);
     }
     let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
     if params.method == BvhBuild::Midpoint {
         if n <= MIDPOINT_LEAF {
-            return;
+            return (node, None);
         }
         let mid = if depth < MEDIAN_DEPTH { midpoint_split(items, &bounds, &cb) } else { median_split(items, &cb) };
-        return finish_inner(items, nodes, me, first, depth, params, mid);
+        return (node, Some(mid));
     }
     let mid = if cb.diagonal().max_element() <= 0.0 {
         // All centroids coincide: split by count if the leaf would be too large.
         if n <= params.max_leaf {
-            return;
+            return (node, None);
         }
         n / 2
     } else {
         let sah = if depth < MEDIAN_DEPTH { sah_split(items, &bounds, &cb, params) } else { None };
         match sah {
             Some(mid) => mid,
-            None if n <= params.max_leaf => return,
+            None if n <= params.max_leaf => return (node, None),
             None => median_split(items, &cb),
         }
     };
-    finish_inner(items, nodes, me, first, depth, params, mid)
+    (node, Some(mid))
 }
 
 /// Puts the half of `items` with the smaller centroids along the centroids' longest axis first.
@@ -234,4 +303,56 @@ fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params)
         }
     }
     (mid > 0 && mid < n).then_some(mid)
+}
+
+#[cfg(test)]
+mod tests {
+    use rand_core::{Rng, SeedableRng};
+
+    use super::*;
+
+    /// Boxes of many sizes scattered through a cube, some of them in clusters of equal centroids.
+    fn scattered(count: u32, seed: u64) -> Vec<BuildItem> {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let mut unit = || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        (0..count)
+            .map(|index| {
+                let c = if index % 97 == 0 { Vec3A::splat(0.5) } else { Vec3A::new(unit(), unit(), unit()) * 100.0 };
+                let half = Vec3A::new(unit(), unit(), unit()) * 2.0f32.powi((unit() * 8.0) as i32 - 6);
+                let bounds = Aabb::new(c - half, c + half);
+                BuildItem { bounds, centroid: bounds.centroid(), index }
+            })
+            .collect()
+    }
+
+    /// The tree as the one-thread recursion lays it out: the root first, each inner node's children
+    /// appended side by side before the first child's subtree.
+    fn one_thread(items: &mut [BuildItem], method: BvhBuild) -> Vec<Node> {
+        let mut nodes = vec![PLACEHOLDER];
+        let params = Params { method, block: 8, max_leaf: 8 };
+        build(items, &mut nodes, 0, 0, 0, &params);
+        nodes
+    }
+
+    fn bits(nodes: &[Node]) -> Vec<([u32; 3], u32, [u32; 3], u32)> {
+        nodes.iter().map(|n| (n.min.map(f32::to_bits), n.offset, n.max.map(f32::to_bits), n.count)).collect()
+    }
+
+    /// Subtrees built side by side on two threads give the one-thread tree, node for node and bit for
+    /// bit, with the items in the same order, for both builds.
+    #[test]
+    fn subtrees_built_side_by_side_lay_out_the_one_thread_tree() {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        for method in [BvhBuild::Sah, BvhBuild::Midpoint] {
+            let count = 5 * PARALLEL_ITEMS as u32 + 123;
+            let mut serial = scattered(count, 7);
+            let mut parallel = scattered(count, 7);
+            let expected = one_thread(&mut serial, method);
+            let nodes = pool.install(|| build_binary(&mut parallel, method, 8, 8));
+            assert!(nodes.len() > 2 * count as usize / 8, "{method:?}: a tree of many leaves");
+            assert_eq!(bits(&nodes), bits(&expected), "{method:?}");
+            let order = |items: &[BuildItem]| items.iter().map(|it| it.index).collect::<Vec<_>>();
+            assert_eq!(order(&parallel), order(&serial), "{method:?}");
+        }
+    }
 }
