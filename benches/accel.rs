@@ -27,6 +27,8 @@ fn scenes() -> Vec<(String, Scene)> {
 }
 
 fn build_and_trace(c: &mut Criterion) {
+    // Builds on one thread: a BVH's build would otherwise use rayon's pool.
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
     for (name, scene) in scenes() {
         let prims = scene.primitives().primitives;
         let n = prims.len();
@@ -38,9 +40,10 @@ fn build_and_trace(c: &mut Criterion) {
         let mut group = c.benchmark_group(format!("build/{name}"));
         group.sample_size(10);
         group.throughput(Throughput::Elements(n as u64));
-        group.bench_function("bvh", |b| b.iter(|| Bvh::new(prims.clone(), shutter)));
-        group
-            .bench_function("bvh-midpoint", |b| b.iter(|| Bvh::with_build(prims.clone(), shutter, BvhBuild::Midpoint)));
+        group.bench_function("bvh", |b| b.iter(|| one.install(|| Bvh::new(prims.clone(), shutter))));
+        group.bench_function("bvh-midpoint", |b| {
+            b.iter(|| one.install(|| Bvh::with_build(prims.clone(), shutter, BvhBuild::Midpoint)))
+        });
         group.bench_function("grid", |b| b.iter(|| Grid::new(prims.clone(), shutter, GridParams::default())));
         group.finish();
 

@@ -104,7 +104,9 @@ fn measure(c: &mut Criterion, w: &Workload) -> Note {
 
     let mut group = c.benchmark_group(format!("{}/build", w.name));
     group.throughput(Throughput::Elements(prims.len() as u64));
-    group.bench_function("raylume", |b| b.iter(|| Bvh::new(black_box(prims.clone()), shutter)));
+    // One thread, as obvhs and Embree build here: raylume's build would otherwise use rayon's pool.
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a thread pool");
+    group.bench_function("raylume", |b| b.iter(|| one.install(|| Bvh::new(black_box(prims.clone()), shutter))));
     group.bench_function("obvhs", |b| b.iter(|| Obvhs::build(black_box(&otris))));
 
     #[cfg(feature = "embree")]

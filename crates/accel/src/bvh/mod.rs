@@ -115,7 +115,9 @@ pub struct Bvh<P> {
 
 impl<P: Intersect + Clone> Bvh<P> {
     /// Builds the hierarchy over `prims` with binned SAH; moving primitives are bounded over all of
-    /// `shutter`.
+    /// `shutter`. Large subtrees build side by side on the current rayon thread pool (inside a pool of
+    /// one thread's `install`, the build runs on that thread); the tree is the same at any number of
+    /// threads.
     pub fn new(prims: Vec<P>, shutter: Interval) -> Self {
         Self::with_build(prims, shutter, BvhBuild::Sah)
     }
