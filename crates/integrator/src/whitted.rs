@@ -53,8 +53,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
     }
 
     /// The light arriving from `light` at `above` (a point offset off the surface). `known` is what
-    /// a batch has found already for a point light: the direction to it if it lights the point, else
-    /// zero.
+    /// a batch has found already for a point light, or for an area light sampled once per sample (its
+    /// point drawn by the batch): the direction to it if it lights the point, else zero.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn direct<A: Accelerator, M: Material, S: SampleSource>(
@@ -76,7 +76,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
             stats.shadow += 1;
             (!world.accel.occluded(&ray, dist)).then_some(ray.dir)
         };
-        if SOFT == SoftShadows::NONE || !light.is_area() {
+        let point = SOFT == SoftShadows::NONE || !light.is_area();
+        if point || (SOFT == SoftShadows::STRATIFIED && known.is_some()) {
             let lit = match known {
                 Some(wi) => (wi != Vec3A::ZERO).then_some(wi),
                 None => unoccluded(light.centre(), stats),
@@ -102,8 +103,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             }
             light.color * sum / (g * g) as f32
         } else {
-            let u = sample.light();
-            match unoccluded(corner + e0 * u.x + e1 * u.y, stats) {
+            match unoccluded(area_point(light, sample.light()), stats) {
                 Some(wi) => light.color * material.local(ns, wo, wi),
                 None => Vec3::ZERO,
             }
@@ -269,6 +269,14 @@ fn shadow_ray(above: Vec3A, n: Vec3A, target: Vec3A, time: f32) -> Option<(Ray, 
     Some((Ray::with_time(above, wi, time), dist))
 }
 
+/// The point of the area `light` at `u` in `[0, 1)^2` across its edges.
+#[inline(always)]
+fn area_point(light: &Light, u: raylume_geometry::Vec2) -> Vec3A {
+    let [e0, e1] = light.edges();
+    let corner = light.centre() - (e0 + e1) * 0.5;
+    corner + e0 * u.x + e1 * u.y
+}
+
 /// What [`Integrator::radiances_after`] keeps from one batch of samples to the next, so that a
 /// render loop that makes one per task allocates nothing per batch.
 #[derive(Debug, Default)]
@@ -338,8 +346,10 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         self.shade(world, ray, first, 1, sample, stats)
     }
 
-    /// The point lights' shadow rays of the whole batch traced together, light by light
-    /// ([`Accelerator::occluded_each_within`]); area lights, sampled per sample, are traced ray by ray.
+    /// The shadow rays of the whole batch traced together, light by light
+    /// ([`Accelerator::occluded_each_within`]): to each point light, and to the point each sample draws
+    /// on an area light sampled once per sample (drawn in the order shading would draw it). Area lights
+    /// as grids of points are traced ray by ray.
     fn radiances_after<A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
@@ -363,18 +373,22 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         grow(shadow, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
         grow(ends, count, 0.0);
         grow(owners, count, 0);
+        let batched = |light: &Light| SOFT != SoftShadows::GRID || !light.is_area();
         for (l, light) in world.lights.iter().enumerate() {
-            if SOFT != SoftShadows::NONE && light.is_area() {
+            if !batched(light) {
                 continue;
             }
+            let area = SOFT != SoftShadows::NONE && light.is_area();
             let lit = &mut lit[l * count..(l + 1) * count];
             let mut slots = shadow.iter_mut().zip(ends.iter_mut()).zip(owners.iter_mut());
             let mut traced = 0;
-            for (i, ((s, ray), dir)) in surfaces.iter().zip(rays).zip(lit.iter_mut()).enumerate() {
+            let each = surfaces.iter().zip(rays).zip(lit.iter_mut()).zip(samples.iter_mut());
+            for (i, (((s, ray), dir), sample)) in each.enumerate() {
                 *dir = Vec3A::ZERO;
-                if let Some(s) = s
-                    && let Some((r, dist)) = shadow_ray(s.above, s.n, light.centre(), ray.time)
-                {
+                let Some(s) = s else { continue };
+                // Shading draws each area light's point first, light by light: drawn here in that order.
+                let target = if area { area_point(light, sample.light()) } else { light.centre() };
+                if let Some((r, dist)) = shadow_ray(s.above, s.n, target, ray.time) {
                     let Some(((ray_slot, end_slot), owner_slot)) = slots.next() else {
                         unreachable!("a slot per sample")
                     };
@@ -397,10 +411,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         for (i, (((ray, s), sample), color)) in samples.enumerate() {
             *color = match s {
                 Some(s) => {
-                    let known = |l: usize| {
-                        let point = SOFT == SoftShadows::NONE || !world.lights[l].is_area();
-                        point.then(|| lit[l * count + i])
-                    };
+                    let known = |l: usize| batched(&world.lights[l]).then(|| lit[l * count + i]);
                     self.shade_surface(world, ray, s, 1, known, sample, stats)
                 }
                 None => self.escape(world, ray, 1),
