@@ -82,10 +82,13 @@ impl Jittered {
 
 /// Random numbers of one sample, seeded by (seed, pixel, index). The generator is seeded at the first
 /// number drawn, and the per-pixel scramble formed at each permutation: a sample that draws nothing (a
-/// pixel centre without area lights or rough mirrors) costs no hashing.
+/// pixel centre without area lights or rough mirrors) costs no hashing. The light's stratum is
+/// permuted at the first light point drawn and kept for the sample's later ones (one per light and
+/// bounce).
 #[derive(Clone, Debug)]
 pub struct Source {
     rng: Option<Pcg32>,
+    light_stratum: Option<u32>,
     seed: u64,
     /// The pixel, `y` in the high half.
     pixel: u64,
@@ -100,7 +103,7 @@ pub struct Source {
 impl Source {
     fn new(seed: u64, x: u32, y: u32, index: u32, n: u32, centre: bool) -> Self {
         let pixel = ((y as u64) << 32) | x as u64;
-        Self { rng: None, seed, pixel, index, stratum: index, n, centre }
+        Self { rng: None, light_stratum: None, seed, pixel, index, stratum: index, n, centre }
     }
 
     /// The per-pixel scramble of the lens, light and time permutations.
@@ -141,7 +144,10 @@ impl SampleSource for Source {
         // One light stratum per pixel stratum, through a per-pixel random permutation: the identity
         // (the course's tie) would only integrate the diagonal blocks of pixel x light and bias the
         // penumbra; a permutation keeps both stratified and the estimate unbiased.
-        let s = permute(self.stratum, self.n * self.n, self.scramble() ^ 0x68e3_1da4);
+        let s = match self.light_stratum {
+            Some(s) => s,
+            None => *self.light_stratum.insert(permute(self.stratum, self.n * self.n, self.scramble() ^ 0x68e3_1da4)),
+        };
         self.stratified(s)
     }
 
