@@ -278,6 +278,24 @@ mod tests {
         }
     }
 
+    /// Every light point of a sample lies in the one light stratum its pixel stratum is tied to, each
+    /// with its own jitter: the first, and those of later lights and bounces.
+    #[test]
+    fn a_samples_light_points_keep_its_light_stratum() {
+        let s = Jittered::new(11, 4);
+        let stratum = |p: Vec2| (p.x * 4.0) as u32 + 4 * (p.y * 4.0) as u32;
+        let mut tied = [0u32; 16];
+        for i in 0..16 {
+            let first = stratum(s.begin(2, 9, i).light());
+            let mut src = s.begin(2, 9, i);
+            let points: Vec<Vec2> = (0..4).map(|_| src.light()).collect();
+            assert!(points.iter().all(|&p| stratum(p) == first), "sample {i}: {points:?}");
+            assert!(points.windows(2).all(|w| w[0] != w[1]), "sample {i}: one jitter each");
+            tied[first as usize] += 1;
+        }
+        assert!(tied.iter().all(|&c| c == 1), "{tied:?}");
+    }
+
     #[test]
     fn jittered_puts_one_sample_in_each_stratum_of_every_dimension() {
         let s = Jittered::new(3, 4);
