@@ -112,7 +112,7 @@ const MAILBOX: usize = 32;
 /// the scene (a floor under a model, see `large_primitives`), are tested directly by every ray.
 ///
 /// Each cell holds its triangles in packets of four, which a ray filters four at a time without
-/// branches ([`candidates`], the BVH's leaf filter), and its other primitives as a list of indices.
+/// branches (the BVH's leaf filter), and its other primitives as a list of indices.
 /// The exact test runs on the candidates and the other primitives only.
 ///
 /// The course's mailbox (a ray id stored in each primitive) is not safe when several threads trace
