@@ -1,5 +1,5 @@
 use raylume_accel::{Accelerator, PrimitiveHit};
-use raylume_geometry::{Interval, Ray, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
+use raylume_geometry::{Interval, Ray, Vec2, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
 use raylume_intersect::Hit;
 use raylume_material::{FresnelMode, Material, fresnel_refract, reflect, refract};
 
@@ -87,8 +87,6 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 None => Vec3::ZERO,
             };
         }
-        let [e0, e1] = light.edges();
-        let corner = light.centre() - (e0 + e1) * 0.5;
         if SOFT == SoftShadows::GRID {
             let g = if light.grid() > 0 { light.grid() } else { self.grid };
             let mut sum = Vec3::ZERO;
@@ -96,7 +94,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 for j in 0..g {
                     let u = (i as f32 + 0.5) / g as f32;
                     let v = (j as f32 + 0.5) / g as f32;
-                    if let Some(wi) = unoccluded(corner + e0 * u + e1 * v, stats) {
+                    if let Some(wi) = unoccluded(area_point(light, Vec2::new(u, v)), stats) {
                         sum += material.local(ns, wo, wi);
                     }
                 }
@@ -271,7 +269,7 @@ fn shadow_ray(above: Vec3A, n: Vec3A, target: Vec3A, time: f32) -> Option<(Ray, 
 
 /// The point of the area `light` at `u` in `[0, 1)^2` across its edges.
 #[inline(always)]
-fn area_point(light: &Light, u: raylume_geometry::Vec2) -> Vec3A {
+fn area_point(light: &Light, u: Vec2) -> Vec3A {
     let [e0, e1] = light.edges();
     let corner = light.centre() - (e0 + e1) * 0.5;
     corner + e0 * u.x + e1 * u.y
