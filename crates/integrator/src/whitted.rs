@@ -371,22 +371,27 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         grow(shadow, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
         grow(ends, count, 0.0);
         grow(owners, count, 0);
-        let batched = |light: &Light| SOFT != SoftShadows::GRID || !light.is_area();
+        // Short-circuit: without area lights, no light is looked at.
+        let batched = |l: usize| SOFT != SoftShadows::GRID || !world.lights[l].is_area();
         for (l, light) in world.lights.iter().enumerate() {
-            if !batched(light) {
+            if !batched(l) {
                 continue;
             }
             let area = SOFT != SoftShadows::NONE && light.is_area();
             let lit = &mut lit[l * count..(l + 1) * count];
             let mut slots = shadow.iter_mut().zip(ends.iter_mut()).zip(owners.iter_mut());
             let mut traced = 0;
-            let each = surfaces.iter().zip(rays).zip(lit.iter_mut()).zip(samples.iter_mut());
-            for (i, (((s, ray), dir), sample)) in each.enumerate() {
+            for (i, ((s, ray), dir)) in surfaces.iter().zip(rays).zip(lit.iter_mut()).enumerate() {
                 *dir = Vec3A::ZERO;
-                let Some(s) = s else { continue };
                 // Shading draws each area light's point first, light by light: drawn here in that order.
-                let target = if area { area_point(light, sample.light()) } else { light.centre() };
-                if let Some((r, dist)) = shadow_ray(s.above, s.n, target, ray.time) {
+                if let Some(s) = s
+                    && let Some((r, dist)) = shadow_ray(
+                        s.above,
+                        s.n,
+                        if area { area_point(light, samples[i].light()) } else { light.centre() },
+                        ray.time,
+                    )
+                {
                     let Some(((ray_slot, end_slot), owner_slot)) = slots.next() else {
                         unreachable!("a slot per sample")
                     };
@@ -409,7 +414,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         for (i, (((ray, s), sample), color)) in samples.enumerate() {
             *color = match s {
                 Some(s) => {
-                    let known = |l: usize| batched(&world.lights[l]).then(|| lit[l * count + i]);
+                    let known = |l: usize| batched(l).then(|| lit[l * count + i]);
                     self.shade_surface(world, ray, s, 1, known, sample, stats)
                 }
                 None => self.escape(world, ray, 1),
