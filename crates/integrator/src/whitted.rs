@@ -381,14 +381,15 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
             let lit = &mut lit[l * count..(l + 1) * count];
             let mut slots = shadow.iter_mut().zip(ends.iter_mut()).zip(owners.iter_mut());
             let mut traced = 0;
-            for (i, ((s, ray), dir)) in surfaces.iter().zip(rays).zip(lit.iter_mut()).enumerate() {
+            let each = surfaces.iter().zip(rays).zip(lit.iter_mut()).zip(samples.iter_mut());
+            for (i, (((s, ray), dir), sample)) in each.enumerate() {
                 *dir = Vec3A::ZERO;
                 // Shading draws each area light's point first, light by light: drawn here in that order.
                 if let Some(s) = s
                     && let Some((r, dist)) = shadow_ray(
                         s.above,
                         s.n,
-                        if area { area_point(light, samples[i].light()) } else { light.centre() },
+                        if area { area_point(light, sample.light()) } else { light.centre() },
                         ray.time,
                     )
                 {
