@@ -287,9 +287,9 @@ pub struct BatchBuffers {
     ends: Vec<f32>,
     owners: Vec<u32>,
     answers: Vec<bool>,
-    /// At `l * count + i` (`count` samples): the direction from sample `i`'s surface to the point light
-    /// `l` if that light reaches it, else zero (slots of area lights, and past the batch, hold stale
-    /// values).
+    /// At `l * count + i` (`count` samples): the direction from sample `i`'s surface to the light `l`
+    /// (its centre, or the point the sample drew on it) if that light reaches it, else zero (slots of
+    /// area lights as grids, and past the batch, hold stale values).
     lit: Vec<Vec3A>,
 }
 
@@ -371,7 +371,8 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         grow(shadow, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
         grow(ends, count, 0.0);
         grow(owners, count, 0);
-        // Short-circuit: without area lights, no light is looked at.
+        // The lights whose shadow rays the batch traces: all but area lights as grids (only with grids
+        // is a light looked at).
         let batched = |l: usize| SOFT != SoftShadows::GRID || !world.lights[l].is_area();
         for (l, light) in world.lights.iter().enumerate() {
             if !batched(l) {
