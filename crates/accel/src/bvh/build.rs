@@ -1,6 +1,7 @@
 //! The binary build: binned SAH (or the course's midpoint splits) into a tree of 32-byte nodes,
 //! which [`wide`](super::wide) collapses into its wide nodes.
 
+use glam::UVec3;
 use raylume_geometry::{Aabb, Vec3A};
 
 /// Number of SAH bins per axis.
@@ -146,7 +147,9 @@ fn build(items: &mut [BuildItem], nodes: &mut Vec<Node>, me: usize, first: usize
 /// The leaf over `items` (which start at primitive `first`) and, if they are to be split, the number
 /// of them (reordered) that go to the first child.
 fn node_and_split(items: &mut [BuildItem], first: usize, depth: usize, params: &Params) -> (Node, Option<usize>) {
-    let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
+    // The bounds of the items and of their centroids, in one pass.
+    let (bounds, cb) =
+        items.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), it| (b.union(it.bounds), c.union_point(it.centroid)));
     let node = Node {
         min: bounds.min.to_array(),
         offset: first as u32,
@@ -157,7 +160,6 @@ fn node_and_split(items: &mut [BuildItem], first: usize, depth: usize, params: &
     if n <= 1 {
         return (node, None);
     }
-    let cb = items.iter().fold(Aabb::EMPTY, |b, it| b.union_point(it.centroid));
     if params.method == BvhBuild::Midpoint {
         if n <= MIDPOINT_LEAF {
             return (node, None);
@@ -247,48 +249,51 @@ fn midpoint_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb) -> usize {
 fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params) -> Option<usize> {
     let blocks = |n: usize| n.div_ceil(params.block) as f32;
     let n = items.len();
-    let bin_of = |c: Vec3A, axis: usize, lo: f32, scale: f32| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
+    // An axis along which the centroids do not spread gets scale 0: every item in its bin 0, and no
+    // boundary to weigh.
+    let extent = cb.diagonal();
+    let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), BINS as f32 / extent, Vec3A::ZERO);
+    let mut bin_bounds = [[Aabb::EMPTY; BINS]; 3];
+    let mut bin_count = [[0u32; BINS]; 3];
+    // Bit `b` of an axis set: its bin `b` holds an item.
+    let mut occupied = [0u32; 3];
+    for it in items.iter() {
+        // The bins of the three axes at once, each `(x as u32).min(BINS - 1)`: a saturating conversion, NaN to 0.
+        let bins = ((it.centroid - cb.min) * scale).as_uvec3().min(UVec3::splat(BINS as u32 - 1)).to_array();
+        for axis in 0..3 {
+            let b = bins[axis] as usize;
+            bin_bounds[axis][b] = bin_bounds[axis][b].union(it.bounds);
+            bin_count[axis][b] += 1;
+            occupied[axis] |= 1 << b;
+        }
+    }
     // (cost, axis, boundary)
     let mut best = (f32::INFINITY, 0, 0);
     for axis in 0..3 {
-        let extent = cb.diagonal()[axis];
-        if extent <= 0.0 {
-            continue;
-        }
-        let (lo, scale) = (cb.min[axis], BINS as f32 / extent);
-        let mut bin_bounds = [Aabb::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        // Bit `b` set: bin `b` holds an item.
-        let mut occupied = 0u32;
-        for it in items.iter() {
-            let b = bin_of(it.centroid, axis, lo, scale);
-            bin_bounds[b] = bin_bounds[b].union(it.bounds);
-            bin_count[b] += 1;
-            occupied |= 1 << b;
-        }
+        let (bin_bounds, bin_count) = (&bin_bounds[axis], &bin_count[axis]);
         // The boundaries between two occupied bins with only empty ones between them all split the items
         // alike, at one cost: the sweeps visit the occupied bins only, and the lowest boundary of each gap.
         // Sweep from the right for the area and count at and above each occupied bin.
         let mut right_area = [0.0f32; BINS];
         let mut right_count = [0usize; BINS];
         let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-        let mut rest = occupied;
+        let mut rest = occupied[axis];
         while rest != 0 {
             let b = 31 - rest.leading_zeros() as usize;
             rest &= !(1 << b);
             acc = acc.union(bin_bounds[b]);
-            cnt += bin_count[b];
+            cnt += bin_count[b] as usize;
             right_area[b] = acc.surface_area();
             right_count[b] = cnt;
         }
         let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-        let mut rest = occupied;
+        let mut rest = occupied[axis];
         while rest & (rest - 1) != 0 {
             let b = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let above = rest.trailing_zeros() as usize;
             acc = acc.union(bin_bounds[b]);
-            cnt += bin_count[b];
+            cnt += bin_count[b] as usize;
             let cost = acc.surface_area() * blocks(cnt) + right_area[above] * blocks(right_count[above]);
             if cost < best.0 {
                 best = (cost, axis, b + 1);
@@ -303,11 +308,13 @@ fn sah_split(items: &mut [BuildItem], bounds: &Aabb, cb: &Aabb, params: &Params)
     if n <= params.max_leaf && split_cost >= blocks(n) {
         return None;
     }
-    // Partition in place: items in bins below the boundary first.
-    let (lo, scale) = (cb.min[axis], BINS as f32 / cb.diagonal()[axis]);
+    // Partition in place: items in bins below the boundary first. A bin `(x as u32).min(BINS - 1)` of
+    // `x >= 0` is below the whole number `boundary < BINS` exactly where `x` is (NaN in bin 0).
+    let (lo, scale, edge) = (cb.min[axis], scale[axis], boundary as f32);
     let mut mid = 0;
     for i in 0..n {
-        if bin_of(items[i].centroid, axis, lo, scale) < boundary {
+        let x = (items[i].centroid[axis] - lo) * scale;
+        if x < edge || x.is_nan() {
             items.swap(i, mid);
             mid += 1;
         }
