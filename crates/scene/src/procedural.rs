@@ -55,11 +55,12 @@ impl Generator {
 
     /// The number of primitives the scene of this size has.
     pub fn primitives(self, size: u32) -> u64 {
+        // Saturating, so that a size too large for the count still counts as too large.
         let s = size as u64;
         match self {
-            Self::Balls => (9u64.saturating_pow(size + 1) - 1) / 8 + 1,
-            Self::Tetra => 4u64.saturating_pow(size + 1),
-            Self::Mount => 2 * 4u64.saturating_pow(size) + 4,
+            Self::Balls => (9u64.saturating_pow(size.saturating_add(1)) - 1) / 8 + 1,
+            Self::Tetra => 4u64.saturating_pow(size.saturating_add(1)),
+            Self::Mount => 4u64.saturating_pow(size).saturating_mul(2).saturating_add(4),
             Self::Rings => s * 2 * RING_SEGMENTS as u64 + 1,
         }
     }

@@ -142,3 +142,21 @@ fn ray_sets_round_trip_and_reject_bad_files() {
     assert_eq!(&hits[8..12], &f32::INFINITY.to_le_bytes());
     assert_eq!(&hits[12..16], &u32::MAX.to_le_bytes());
 }
+
+/// Every size past the largest scene is refused before anything is made, the sizes whose counts
+/// overflow 64 bits included.
+#[test]
+fn sizes_past_the_largest_scene_are_refused() {
+    use raylume_scene::procedural::MAX_PRIMITIVES;
+    for generator in [Generator::Balls, Generator::Tetra, Generator::Mount, Generator::Rings] {
+        let largest = (0..=u32::MAX).find(|&s| generator.primitives(s) > MAX_PRIMITIVES).unwrap();
+        for size in [largest, largest + 1, 31, 32, 33, 64, 100, 1000, u32::MAX - 1, u32::MAX] {
+            if size < largest {
+                continue;
+            }
+            assert!(generator.primitives(size) > MAX_PRIMITIVES, "{generator:?} {size}");
+            let err = generator.generate(size).expect_err("too large");
+            assert!(err.to_string().contains("expected a size"), "{generator:?} {size}: {err}");
+        }
+    }
+}
