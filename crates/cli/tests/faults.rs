@@ -1,6 +1,6 @@
 //! Faults while writing: a signal at any moment, a full disk, a read-only folder, a folder that
-//! refuses new files. Each leaves either the previous file or the complete new one, and nothing
-//! else, with a clear message and exit code.
+//! refuses new files, a process allowed too little memory. Each leaves either the previous file or
+//! the complete new one, and nothing else, with a clear message and exit code.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -211,4 +211,31 @@ fn a_signal_stops_a_render_at_the_end_of_a_pass_and_a_second_stops_it_at_once() 
     assert_eq!(run.status.code(), Some(130), "{}", String::from_utf8_lossy(&run.stderr));
     assert_eq!(others(&dir, &["out.exr"]), Vec::<String>::new(), "nothing written by the second run");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A render larger than the process may take (`ulimit -v`) is refused before it starts, with the
+/// memory it would take and the limit, where the same render with room enough runs.
+#[test]
+fn a_render_larger_than_the_address_space_limit_is_refused_before_it_starts() {
+    if !Path::new("/proc/self/limits").exists() {
+        println!("skipped: no /proc/self/limits to read the address-space limit from");
+        return;
+    }
+    let dir = temp_dir("ulimit");
+    let scene = background_scene(&dir, 8);
+    let out = dir.join("out.png");
+    let under_limit = |kib: u64| {
+        let script = "ulimit -v \"$1\" && exec \"$2\" render \"$3\" --width 4096 --height 4096 -o \"$4\"";
+        let bin = env!("CARGO_BIN_EXE_raylume");
+        Command::new("sh").args(["-c", script, "sh", &kib.to_string(), bin]).arg(&scene).arg(&out).output().unwrap()
+    };
+    let run = under_limit(700 * 1024);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("4096 x 4096 pixels") && stderr.contains("address-space limit"), "{stderr}");
+    assert!(!stderr.contains("rays (camera"), "refused before the render: {stderr}");
+    assert_eq!(others(&dir, &["empty.p3f"]), Vec::<String>::new());
+    let run = under_limit(3 * 1024 * 1024);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(out.exists());
 }

@@ -193,14 +193,16 @@ impl Steps for Scene {
         }
         let pixels = view.width as u64 * view.height as u64;
         let bytes = limits::render_bytes(self.primitive_count() as u64, pixels);
-        if bytes > limits::MAX_RENDER_BYTES {
+        let (allowed, what) = limits::render_bytes_allowed();
+        if bytes > allowed {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             return Err(SceneError::Invalid(format!(
-                "the render would take about {:.1} GiB ({} primitives, {} x {} pixels), more than the {} GiB allowed",
-                bytes as f64 / (1u64 << 30) as f64,
+                "the render would take about {:.2} GiB ({} primitives, {} x {} pixels), more than the {:.2} GiB {what}",
+                gib(bytes),
                 self.primitive_count(),
                 view.width,
                 view.height,
-                limits::MAX_RENDER_BYTES >> 30
+                gib(allowed)
             )));
         }
         Ok(Prepared { view, lights, materials, shutter, settings })

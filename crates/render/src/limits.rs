@@ -13,15 +13,52 @@ pub const MAX_GRID_K: f32 = raylume_accel::GridParams::MAX_K;
 /// Most memory a render may plan to take for its primitives, accelerator and image, in bytes.
 pub const MAX_RENDER_BYTES: u64 = 16 << 30;
 
-/// An estimate of the memory a render of `primitives` primitives at `pixels` pixels takes: the
-/// primitives and their shading, the accelerator's nodes and references, and the image with its
-/// accumulation.
+/// An estimate of the memory a render of `primitives` primitives at `pixels` pixels takes at its
+/// peak: the primitives and their shading, the accelerator's nodes and references, and the image
+/// with its accumulation, its error estimate and its encoded copy.
 ///
 /// ```
-/// assert_eq!(raylume_render::limits::render_bytes(1, 1), 192 + 32);
+/// assert_eq!(raylume_render::limits::render_bytes(1, 1), 192 + 64);
 /// ```
 pub fn render_bytes(primitives: u64, pixels: u64) -> u64 {
-    primitives.saturating_mul(192).saturating_add(pixels.saturating_mul(32))
+    primitives.saturating_mul(192).saturating_add(pixels.saturating_mul(64))
+}
+
+/// What a process takes besides a render's own buffers: its code, threads and allocator.
+pub const PROCESS_BYTES: u64 = 128 << 20;
+
+/// The most memory a render may plan to take here, and what sets it: [`MAX_RENDER_BYTES`], or less
+/// where the process may not take that much (on Linux, its address-space limit, `ulimit -v`, or the
+/// machine's memory), less [`PROCESS_BYTES`].
+pub fn render_bytes_allowed() -> (u64, &'static str) {
+    let mut allowed = (MAX_RENDER_BYTES, "allowed");
+    let limits = [
+        (address_space_limit(), "the process's address-space limit (ulimit -v) leaves"),
+        (physical_memory(), "the machine's memory leaves"),
+    ];
+    for (limit, what) in limits {
+        if let Some(bytes) = limit.map(|b| b.saturating_sub(PROCESS_BYTES))
+            && bytes < allowed.0
+        {
+            allowed = (bytes, what);
+        }
+    }
+    allowed
+}
+
+/// The soft limit on the process's address space (`ulimit -v`), where one is set and readable.
+fn address_space_limit() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits.lines().find(|l| l.starts_with("Max address space"))?;
+    line["Max address space".len()..].split_whitespace().next()?.parse().ok()
+}
+
+/// The machine's memory, where it is readable.
+fn physical_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line["MemTotal:".len()..].split_whitespace().next()?.parse().ok()?;
+    Some(kib.saturating_mul(1024))
 }
 
 #[cfg(test)]
