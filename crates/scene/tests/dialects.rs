@@ -259,6 +259,12 @@ fn malformed_variants_say_what_was_expected() {
             "x.p3f:3:1: expected a plane normal that is not zero and a plane at a finite distance",
         ),
         (format!("{CAMERA}{f}c 0 0 0 0 0 1 0 -0\n"), "x.p3f:3:1: expected cone radii that are not both 0"),
+        (format!("{CAMERA}{f}c\n1 2 3 1\n1 2 3 0.5\n"), "x.p3f:3:1: expected a cone whose base and apex differ"),
+        (
+            format!("{CAMERA}{f}s 0 0 0 1e-50\n"),
+            "x.p3f:3:9: expected a sphere radius that is not 0, found '1e-50', which rounds to 0 in single precision",
+        ),
+        (format!("{CAMERA}{f}s 0 0 0 0e5\n"), "x.p3f:3:9: expected a sphere radius that is not 0, found '0e5'"),
         ("b 0.1 0.2\nv".to_owned(), "x.p3f:2:1: expected a number (background colour b), found 'v'"),
         ("v\nfrom 0 0 5\nat 0 0 0\nupp 0 1 0\n".to_owned(), "x.p3f:4:1: expected 'up', found 'upp'"),
         (

@@ -117,7 +117,14 @@ impl<'a, 'f> Parser<'a, 'f> {
         let t = self.token(format_args!("a number ({what})"))?;
         let v = self.number_of(&t, what)?;
         if !ok(v) {
-            return Err(self.error(&t, format!("expected {expected}, found '{}'", t.shown())));
+            // A number written non-zero that rounds to zero in f32 (below about 1.4e-45) says so.
+            let mantissa = t.text.split(['e', 'E']).next().unwrap_or("");
+            let rounded = if v == 0.0 && mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b)) {
+                ", which rounds to 0 in single precision"
+            } else {
+                ""
+            };
+            return Err(self.error(&t, format!("expected {expected}, found '{}'{rounded}", t.shown())));
         }
         Ok(v)
     }
@@ -307,6 +314,9 @@ impl<'a, 'f> Parser<'a, 'f> {
                 let apex_radius = self.number("cone apex radius")?.abs();
                 if base_radius == 0.0 && apex_radius == 0.0 {
                     return Err(self.error(tag, "expected cone radii that are not both 0".to_owned()));
+                }
+                if base == apex {
+                    return Err(self.error(tag, "expected a cone whose base and apex differ".to_owned()));
                 }
                 Entity::Object(Shape::Cone { base, base_radius, apex, apex_radius })
             }
