@@ -60,8 +60,13 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     if args.spp_list.is_empty() || args.spp_list.contains(&0) || args.reference_spp == 0 {
         return Err(bad_input("sample counts must be at least 1"));
     }
+    if args.time_budgets.as_ref().is_some_and(|b| b.is_empty() || b.iter().any(|b| !b.is_finite() || *b <= 0.0)) {
+        return Err(bad_input("--time-budgets: expected positive numbers of seconds"));
+    }
     let base =
         RenderOptions { resolution: args.width.zip(args.height), use_env: !args.no_env, ..RenderOptions::default() };
+    // Every option is checked before the reference, the longest render, starts.
+    RenderOptions { passes: args.passes, ..base.clone() }.validate().map_err(bad_input)?;
     std::fs::create_dir_all(&args.output)
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", args.output.display()) })?;
     let render = |spp: u32, seed: u64, sampler: SamplerKind, passes: u32| {
@@ -203,6 +208,10 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     );
     print!("{table}");
     let png_path = args.output.join("convergence.png");
+    if !series.iter().flat_map(|s| &s.1).any(|&p| plottable(p)) {
+        eprintln!("raylume: every error measured is 0 (each render equals the reference): no log-log plot to draw");
+        return Ok(());
+    }
     plot(&png_path, &series, &scene_name(&args), "RMSE against the reference, and estimated (log)")
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", png_path.display()) })?;
     eprintln!("raylume: wrote {}", png_path.display());
@@ -294,9 +303,6 @@ fn progressive_budgets(
     budgets: &[f64],
 ) -> Result<Vec<Measured>, Failure> {
     let mut budgets: Vec<f64> = budgets.to_vec();
-    if budgets.is_empty() || budgets.iter().any(|b| !b.is_finite() || *b <= 0.0) {
-        return Err(bad_input("--time-budgets: expected positive numbers of seconds"));
-    }
     budgets.sort_by(f64::total_cmp);
     let options = RenderOptions {
         settings: RenderSettings { seed: 1, ..RenderSettings::default() },

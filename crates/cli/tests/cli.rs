@@ -511,7 +511,7 @@ fn converge_refuses_references_that_are_not_finite_or_lie_about_their_size() {
 }
 
 #[test]
-fn converge_writes_its_rows_even_when_the_plot_cannot_be_drawn() {
+fn converge_of_a_scene_without_error_writes_its_rows_and_no_plot() {
     // Nothing but a background: every render equals the reference, so every error is 0 and a
     // log-log plot has no point to draw.
     let dir = temp_dir("converge-flat");
@@ -527,13 +527,36 @@ fn converge_writes_its_rows_even_when_the_plot_cannot_be_drawn() {
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert_eq!(run.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("no positive points to plot"), "{stderr}");
+    assert_eq!(run.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("every error measured is 0") && stderr.contains("no log-log plot"), "{stderr}");
     let csv = std::fs::read_to_string(report.join("convergence.csv")).unwrap();
     assert_eq!(csv.lines().count(), 5, "a header and four rows: {csv}");
     assert!(!report.join("convergence.png").exists());
     let leftovers: Vec<_> = std::fs::read_dir(&report).unwrap().filter_map(|e| e.ok()).map(|e| e.file_name()).collect();
     assert_eq!(leftovers.len(), 2, "the CSV and the reference only: {leftovers:?}");
+}
+
+/// Options that cannot be rendered are refused before the reference, the longest render, starts.
+#[test]
+fn converge_checks_its_options_before_rendering_the_reference() {
+    let dir = temp_dir("converge-early");
+    for (flags, message) in [
+        (&["--passes", "0"][..], "passes 0: expected 1..="),
+        (&["--time-budgets", "0"][..], "--time-budgets: expected positive numbers of seconds"),
+        (&["--time-budgets", "1,nan"][..], "--time-budgets: expected positive numbers of seconds"),
+    ] {
+        let run = raylume()
+            .arg("converge")
+            .args(["--width", "8", "--height", "8", "--spp-list", "1", "-o"])
+            .arg(dir.join("report"))
+            .args(flags)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{flags:?}: {stderr}");
+        assert!(stderr.contains(message), "{flags:?}: {stderr}");
+        assert!(!stderr.contains("rendering the reference"), "{flags:?}: {stderr}");
+    }
 }
 
 /// The summary gives the samples per pixel each sampler really drew: split into passes of equal
