@@ -11,7 +11,7 @@ use crate::{Failure, SamplerArg, bad_input};
 
 #[derive(clap::Args)]
 pub struct ConvergeArgs {
-    /// The p3f scene; without it, the embedded default scene.
+    /// The p3f scene (`-`: read from standard input); without it, the embedded default scene.
     scene: Option<PathBuf>,
     /// A reference image (.pfm or .exr, linear) instead of rendering one.
     #[arg(long)]
@@ -49,10 +49,9 @@ pub struct ConvergeArgs {
 pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     let options = p3f::LoadOptions { ignore_env: args.no_env, ..Default::default() };
     let loaded = match &args.scene {
-        Some(path) => p3f::load(path, &options),
-        None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options),
-    }
-    .map_err(crate::load_failure)?;
+        Some(path) => crate::load_scene(path, &options)?,
+        None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(crate::load_failure)?,
+    };
     for w in &loaded.warnings {
         eprintln!("{w}");
     }

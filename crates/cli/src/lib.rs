@@ -72,7 +72,7 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// The p3f scene; without it, the embedded default scene.
+    /// The p3f scene (`-`: read from standard input); without it, the embedded default scene.
     scene: Option<PathBuf>,
     /// Render an OBJ mesh instead, framed by an automatic camera and light.
     #[arg(long, conflicts_with = "scene")]
@@ -214,7 +214,7 @@ struct RenderArgs {
 
 #[derive(clap::Args)]
 struct BenchCli {
-    /// A p3f scene (or give --mesh or --gen).
+    /// A p3f scene (`-`: read from standard input; or give --mesh or --gen).
     scene: Option<PathBuf>,
     /// An OBJ mesh, framed by an automatic camera.
     #[arg(long, conflicts_with = "scene")]
@@ -474,6 +474,26 @@ fn tile_of(args: &RenderArgs) -> Result<Option<farm::Tile>, Failure> {
 }
 
 /// A scene that did not load: the warnings found before the error are printed first.
+/// Reads the scene at `path`: a file, a pipe, or `-` for standard input (named `<stdin>` in
+/// messages; the files it names are looked for from the current folder).
+pub(crate) fn load_scene(path: &Path, options: &p3f::LoadOptions) -> Result<p3f::Loaded, Failure> {
+    if path != Path::new("-") {
+        return p3f::load(path, options).map_err(load_failure);
+    }
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::io::stdin()
+        .lock()
+        .take(p3f::MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| bad_input(format!("<stdin>: {e}")))?;
+    if bytes.len() as u64 > p3f::MAX_FILE_BYTES {
+        return Err(bad_input(format!("<stdin>: more than {} bytes", p3f::MAX_FILE_BYTES)));
+    }
+    let options = p3f::LoadOptions { base_dir: Some(PathBuf::from(".")), ..options.clone() };
+    p3f::parse_bytes(&bytes, "<stdin>", &options).map_err(load_failure)
+}
+
 pub(crate) fn load_failure(e: raylume_scene::SceneError) -> Failure {
     for w in e.warnings() {
         eprintln!("{w}");
@@ -485,6 +505,13 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     // Everything the flags alone decide is checked before the scene is read.
     let mut render_options = render_options(&args)?;
     check_output(&args.output, true)?;
+    let parts = args.tile.is_some() || args.tile_from_env.is_some() || args.samples.is_some();
+    if args.scene.as_deref() == Some(Path::new("-")) && (parts || args.checkpoint.is_some() || args.resume.is_some()) {
+        return Err(bad_input(
+            "a scene read from standard input cannot be farmed, checkpointed or resumed (each part and each \
+             resumption reads the scene again): give its file",
+        ));
+    }
     if let Some(state) = &args.checkpoint {
         if raylume_integrator::ImageFormat::from_path(state).ok() != Some(raylume_integrator::ImageFormat::Exr) {
             return Err(bad_input(format!("--checkpoint {}: a state is written as .exr", state.display())));
@@ -511,10 +538,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         }
         (scene, None) => {
             let loaded = match scene {
-                Some(path) => p3f::load(path, &options),
-                None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options),
-            }
-            .map_err(load_failure)?;
+                Some(path) => load_scene(path, &options)?,
+                None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(load_failure)?,
+            };
             let summary = scene.as_ref().map(|path| format!("{}: {}", path.display(), loaded.summary()));
             (loaded.scene, loaded.warnings, summary)
         }
@@ -886,8 +912,13 @@ fn generate(name: &str, size: u32) -> Result<(), Failure> {
     let generator: procedural::Generator = name.parse().map_err(bad_input)?;
     let scene = generator.generate(size).map_err(bad_input)?;
     let mut out = std::io::stdout().lock();
-    std::io::Write::write_all(&mut out, scene.to_p3f().as_bytes())
-        .map_err(|e| Failure { code: 1, message: e.to_string() })
+    match std::io::Write::write_all(&mut out, scene.to_p3f().as_bytes()).and_then(|()| std::io::Write::flush(&mut out))
+    {
+        // A reader that has read all it wants (`| head`) ends the output, as it ends any Unix filter's.
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(Failure { code: 1, message: format!("standard output: {e}") }),
+        Ok(()) => Ok(()),
+    }
 }
 
 /// The bench's flags within their limits (before a scene is read).
@@ -925,7 +956,7 @@ fn bench_command(args: BenchCli) -> Result<(), Failure> {
         let size: u32 = g[1].parse().map_err(|_| bad_input(format!("--gen {} {}: expected a size", g[0], g[1])))?;
         g[0].parse::<procedural::Generator>().and_then(|g| g.generate(size)).map_err(bad_input)?
     } else if let Some(path) = &args.scene {
-        p3f::load(path, &p3f::LoadOptions::default()).map_err(load_failure)?.scene
+        load_scene(path, &p3f::LoadOptions::default())?.scene
     } else {
         return Err(bad_input("give a SCENE, --mesh FILE or --gen NAME SIZE"));
     };

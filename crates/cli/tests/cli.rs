@@ -655,3 +655,60 @@ fn renders_report_their_estimated_error_per_pass() {
     assert_eq!(refused.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&refused.stderr).contains("time limit 0: expected seconds > 0"));
 }
+
+/// A scene on standard input (`-`) or through a pipe renders the image of the same scene's file; a
+/// scene from standard input cannot be farmed (each part reads the scene again).
+#[test]
+fn a_scene_from_standard_input_renders_as_its_file() {
+    use std::io::Write;
+    use std::process::Stdio;
+    let dir = temp_dir("stdin");
+    let text = raylume().args(["gen", "balls", "1"]).output().unwrap().stdout;
+    let file = dir.join("balls.p3f");
+    std::fs::write(&file, &text).unwrap();
+    let render = |scene: &str, out: &str, input: Option<&[u8]>, extra: &[&str]| {
+        let mut child = raylume()
+            .args(["render", "-q", "--width", "48", "--height", "32", scene, "-o"])
+            .arg(dir.join(out))
+            .args(extra)
+            .stdin(if input.is_some() { Stdio::piped() } else { Stdio::null() })
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        if let Some(bytes) = input {
+            child.stdin.take().unwrap().write_all(bytes).unwrap();
+        }
+        child.wait_with_output().unwrap()
+    };
+    let run = render(file.to_str().unwrap(), "file.pfm", None, &[]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    for (scene, out) in [("-", "dash.pfm"), ("/dev/stdin", "dev.pfm")] {
+        if scene == "/dev/stdin" && !std::path::Path::new(scene).exists() {
+            continue;
+        }
+        let run = render(scene, out, Some(&text), &[]);
+        assert!(run.status.success(), "{scene}: {}", String::from_utf8_lossy(&run.stderr));
+        assert_eq!(std::fs::read(dir.join(out)).unwrap(), std::fs::read(dir.join("file.pfm")).unwrap(), "{scene}");
+    }
+    let run = render("-", "bad.png", Some(b"v garbage\n"), &[]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("<stdin>:1:3: expected 'from'"));
+    assert!(!dir.join("bad.png").exists());
+    let run = render("-", "part.exr", Some(&text), &["--tile", "0/2"]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("standard input cannot be farmed"));
+}
+
+/// `gen` into a reader that stops early (`| head -1`) ends quietly, as a Unix filter does.
+#[test]
+fn gen_into_a_closed_pipe_ends_quietly() {
+    use std::process::Stdio;
+    let mut child =
+        raylume().args(["gen", "balls", "5"]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut first = [0u8; 16];
+    std::io::Read::read_exact(child.stdout.as_mut().unwrap(), &mut first).unwrap();
+    drop(child.stdout.take());
+    let run = child.wait_with_output().unwrap();
+    assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(String::from_utf8_lossy(&run.stderr), "");
+}

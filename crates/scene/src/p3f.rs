@@ -100,7 +100,7 @@ impl Loaded {
     }
 }
 
-/// Reads and parses a scene file of any dialect.
+/// Reads and parses a scene file of any dialect (a regular file or a pipe).
 ///
 /// Text that is not UTF-8 is read as Latin-1, with a warning naming the first byte that is not.
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, SceneError> {
@@ -144,13 +144,18 @@ pub fn parse_bytes(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Lo
     }
 }
 
-/// Reads a regular file of at most `cap` bytes.
+/// Reads a regular file, or a pipe (`/dev/stdin` fed by another program, `<(...)`), of at most `cap`
+/// bytes.
 pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
     let file = std::fs::File::open(path)?;
     let meta = file.metadata()?;
-    if !meta.is_file() {
-        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"));
+    #[cfg(unix)]
+    let pipe = std::os::unix::fs::FileTypeExt::is_fifo(&meta.file_type());
+    #[cfg(not(unix))]
+    let pipe = false;
+    if !meta.is_file() && !pipe {
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file or a pipe"));
     }
     if meta.len() > cap {
         return Err(std::io::Error::new(
@@ -158,7 +163,7 @@ pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
             format!("the file has {} bytes, more than the {cap} accepted", meta.len()),
         ));
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    let mut bytes = Vec::with_capacity(meta.len().min(cap) as usize);
     file.take(cap + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > cap {
         return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("more than {cap} bytes")));

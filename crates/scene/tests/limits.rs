@@ -134,13 +134,13 @@ fn files_that_are_not_regular_or_endless_are_not_read() {
         return;
     }
     let e = obj::load("/dev/zero").unwrap_err().to_string();
-    assert_eq!(e, "/dev/zero: not a regular file");
+    assert_eq!(e, "/dev/zero: not a regular file or a pipe");
     let e = p3f::load("/dev/zero", &Default::default()).unwrap_err().to_string();
-    assert_eq!(e, "/dev/zero: not a regular file");
+    assert_eq!(e, "/dev/zero: not a regular file or a pipe");
     // A scene's `obj` naming a device, and an OBJ whose `mtllib` names one (MTL files are never opened).
     let text = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 4 4\nf 1 1 1 1 0 1 0 0\nobj /dev/zero\n";
     let e = p3f::parse(text, "dev.p3f", &Default::default()).unwrap_err().to_string();
-    assert_eq!(e, "dev.p3f:3:5: obj '/dev/zero': /dev/zero: not a regular file");
+    assert_eq!(e, "dev.p3f:3:5: obj '/dev/zero': /dev/zero: not a regular file or a pipe");
     let mesh = obj::parse(b"mtllib /dev/zero\nusemtl x\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "m.obj").unwrap();
     assert!(matches!(mesh, Shape::Mesh { ref triangles, .. } if triangles.len() == 1));
 }
