@@ -29,7 +29,16 @@ pub fn load_cubemap(name: &str, search_dirs: &[impl AsRef<Path>]) -> Result<Cube
 }
 
 fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
-    let img = image::ImageReader::open(path)?.with_guessed_format()?.decode()?.into_rgb8();
+    let bytes = std::fs::read(path)?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes)).with_guessed_format()?;
+    // The JPEG decoder fills what a truncated file lacks with grey, silently: such a file is refused.
+    if reader.format() == Some(image::ImageFormat::Jpeg) && !jpeg_ends_its_last_scan(&bytes) {
+        return Err(image::ImageError::Decoding(image::error::DecodingError::new(
+            image::ImageFormat::Jpeg.into(),
+            "the file is truncated: no end-of-image marker after its last scan",
+        )));
+    }
+    let img = reader.decode()?.into_rgb8();
     let (width, height) = img.dimensions();
     let mut texels = Vec::with_capacity(img.as_raw().len());
     // Row 0 of the face is the image's bottom row.
@@ -37,6 +46,15 @@ fn load_face(path: &Path) -> Result<CubemapFace, image::ImageError> {
         texels.extend_from_slice(row);
     }
     Ok(CubemapFace { width, height, texels: Texels::Rgb8(texels) })
+}
+
+/// Whether a JPEG file's last scan is followed by the end-of-image marker, as it is in a whole file.
+/// Scan data never holds the bytes `FF D9` (a stuffed `FF` is followed by `00`), so a file cut short
+/// in its last scan has none after that scan's start (`FF DA`); an end-of-image before it (an EXIF
+/// thumbnail's) does not count, and bytes after the marker (a camera's trailer) do not matter.
+fn jpeg_ends_its_last_scan(bytes: &[u8]) -> bool {
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]).unwrap_or(0);
+    bytes[last_scan..].windows(2).any(|w| w == [0xFF, 0xD9])
 }
 
 #[cfg(test)]
@@ -68,6 +86,31 @@ mod tests {
         for _ in 0..8 {
             let message = load_cubemap("sky", &[&root]).unwrap_err().to_string();
             assert!(message.contains("top.png"), "{message}");
+        }
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+
+    /// A JPEG face cut short anywhere in its data is refused with its name, where the whole file and
+    /// one with bytes after its end load.
+    #[test]
+    fn a_truncated_jpeg_face_is_refused() {
+        let root = std::env::temp_dir().join(format!("raylume-env-jpeg-{}", std::process::id()));
+        let dir = root.join("sky");
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = image::RgbImage::from_fn(64, 48, |x, y| image::Rgb([(x * 4) as u8, (y * 5) as u8, (x ^ y) as u8]));
+        let mut jpeg = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut jpeg), image::ImageFormat::Jpeg).unwrap();
+        for face in ["right", "left", "top", "bottom", "front", "back"] {
+            std::fs::write(dir.join(format!("{face}.jpg")), &jpeg).unwrap();
+        }
+        assert!(load_cubemap("sky", &[&root]).is_ok());
+        let trailer = [&jpeg[..], b"camera trailer"].concat();
+        std::fs::write(dir.join("top.jpg"), &trailer).unwrap();
+        assert!(load_cubemap("sky", &[&root]).is_ok(), "bytes after the end-of-image marker");
+        for cut in [jpeg.len() / 2, jpeg.len() - 2, jpeg.len() - 40] {
+            std::fs::write(dir.join("top.jpg"), &jpeg[..cut]).unwrap();
+            let message = load_cubemap("sky", &[&root]).unwrap_err().to_string();
+            assert!(message.contains("top.jpg") && message.contains("truncated"), "cut at {cut}: {message}");
         }
         std::fs::remove_dir_all(&root).unwrap();
     }
