@@ -33,7 +33,7 @@ mod lexer;
 pub(crate) use lexer::shown;
 mod parser;
 
-pub use crate::limits::{MAX_FILE_BYTES, MAX_PIXELS, MAX_RESOLUTION};
+pub use crate::limits::{MAX_COORDINATE, MAX_FILE_BYTES, MAX_PIXELS, MAX_RESOLUTION};
 
 /// How to load a file.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]

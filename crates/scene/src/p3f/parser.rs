@@ -10,7 +10,7 @@ use raylume_geometry::{Vec3, Vec3A};
 use raylume_material::Phong;
 
 use super::lexer::{Lexer, Token, shown};
-use super::{Dialect, LoadOptions, Loaded, MAX_PIXELS, MAX_RESOLUTION, env_search_dirs};
+use super::{Dialect, LoadOptions, Loaded, MAX_COORDINATE, MAX_PIXELS, MAX_RESOLUTION, env_search_dirs};
 use crate::{AccelHint, Light, LightShape, Object, Scene, SceneError, Shape, Warning};
 
 /// Every tag of every dialect.
@@ -129,11 +129,28 @@ impl<'a, 'f> Parser<'a, 'f> {
         Ok(v)
     }
 
+    /// A point or direction: three numbers within [`MAX_COORDINATE`] of 0.
     fn vec3(&mut self, what: impl Display) -> Result<Vec3A, SceneError> {
-        let x = self.number(format_args!("{what} x"))?;
-        let y = self.number(format_args!("{what} y"))?;
-        let z = self.number(format_args!("{what} z"))?;
+        let x = self.coordinate(format_args!("{what} x"))?;
+        let y = self.coordinate(format_args!("{what} y"))?;
+        let z = self.coordinate(format_args!("{what} z"))?;
         Ok(Vec3A::new(x, y, z))
+    }
+
+    fn coordinate(&mut self, what: impl Display) -> Result<f32, SceneError> {
+        let t = self.token(format_args!("a number ({what})"))?;
+        let v = self.number_of(&t, &what)?;
+        if v.abs() > MAX_COORDINATE {
+            return Err(self.error(
+                &t,
+                format!(
+                    "expected a coordinate ({what}) within ±{MAX_COORDINATE:e} (squared distances beyond overflow \
+                     single precision), found '{}'",
+                    t.shown()
+                ),
+            ));
+        }
+        Ok(v)
     }
 
     fn color(&mut self, what: impl Display) -> Result<Vec3, SceneError> {
@@ -419,9 +436,11 @@ impl<'a, 'f> Parser<'a, 'f> {
         self.warn(tag, format!("unknown tag '{}'{hint}: skipped '{line}'{also}", tag.shown()))
     }
 
-    /// A sphere's radius: not zero; a negative radius (NFF: the inside is visible) is its size.
+    /// A sphere's radius: not zero, within [`MAX_COORDINATE`]; a negative radius (NFF: the inside is
+    /// visible) is its size.
     fn radius(&mut self, what: &str) -> Result<f32, SceneError> {
-        Ok(self.number_where(what, &format!("a {what} that is not 0"), |r| r != 0.0)?.abs())
+        let expected = format!("a {what} that is not 0, within ±{MAX_COORDINATE:e}");
+        Ok(self.number_where(what, &expected, |r| r != 0.0 && r.abs() <= MAX_COORDINATE)?.abs())
     }
 
     fn moving_sphere(&mut self, untimed: bool) -> Result<Shape, SceneError> {
