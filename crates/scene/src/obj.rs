@@ -85,7 +85,7 @@ impl Transform {
 }
 
 /// Parses the bytes of an OBJ file ([`load`]); `name` names it in messages, which give the line
-/// of a malformed entry.
+/// of a malformed entry. A leading UTF-8 byte-order mark is skipped (columns count from after it).
 ///
 /// ```
 /// let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n";
@@ -97,6 +97,8 @@ impl Transform {
 /// assert_eq!(err.to_string(), "bad.obj:2: not a readable OBJ file (cannot parse a vertex position): 'v 1 x 0'");
 /// ```
 pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
+    // tobj would read a byte-order mark as part of the first line's tag, and drop that line.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     // tobj turns a face's reference into an offset unchecked (a wrapping product, or a panic where
     // overflow is checked), so references that point at nothing are refused here first. tobj still
     // reads the lines before such a face, so an earlier malformed line is reported as the first.
