@@ -587,9 +587,25 @@ fn ranges(rows: &[u32]) -> String {
     format!("{}{more}", shown.join(", "))
 }
 
+/// Refuses an output that is one of the parts (the same path, or the same file by another path
+/// where both exist), which the merged image would replace.
+fn output_is_no_part(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
+    let canonical = output.canonicalize().ok();
+    let same = |part: &PathBuf| part == output || canonical.is_some() && part.canonicalize().ok() == canonical;
+    match paths.iter().find(|p| same(p)) {
+        Some(part) => Err(bad_input(format!(
+            "{}: the output is also the part {}: expected an output other than the parts, which it would overwrite",
+            output.display(),
+            part.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
 /// Assembles the parts into the full image and writes it to `output` (any format raylume writes;
 /// an EXR output keeps the variance channels when every part has them).
 pub(crate) fn merge(output: &Path, paths: &[PathBuf]) -> Result<(), Failure> {
+    output_is_no_part(output, paths)?;
     crate::check_output(output, true)?;
     if !paths.is_empty() && paths.iter().all(|p| is_share(p)) {
         return merge_shares(output, paths);

@@ -52,7 +52,8 @@ enum Command {
     /// Error against run time: render a reference, then each sample count with each sampler, and
     /// write report/convergence.csv with the metrics and the time taken.
     Converge(converge::ConvergeArgs),
-    /// Print the RMSE between two images of the same size (8-bit channels as values in [0, 1]).
+    /// Print the RMSE between two images of the same size: .png (8-bit channels as values in
+    /// [0, 1]), .exr or .pfm (float values as they are), or .jpg.
     Compare {
         /// The first image.
         a: PathBuf,
@@ -981,19 +982,55 @@ fn bench_command(args: BenchCli) -> Result<(), Failure> {
 }
 
 fn compare(a: &Path, b: &Path) -> Result<(), Failure> {
-    let load = |p: &Path| image::open(p).map(|i| i.into_rgb8()).map_err(|e| bad_input(format!("{}: {e}", p.display())));
-    let (ia, ib) = (load(a)?, load(b)?);
-    if ia.dimensions() != ib.dimensions() {
+    let (ia, ib) = (comparable(a)?, comparable(b)?);
+    let size = |f: &raylume_integrator::Film| (f.width(), f.height());
+    if size(&ia) != size(&ib) {
         return Err(bad_input(format!(
             "{} is {:?} but {} is {:?}: sizes differ",
             a.display(),
-            ia.dimensions(),
+            size(&ia),
             b.display(),
-            ib.dimensions()
+            size(&ib)
         )));
     }
-    let to_f = |i: &image::RgbImage| i.as_raw().iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>();
-    let rmse = raylume_integrator::metrics::rmse(&to_f(&ia), &to_f(&ib)).unwrap_or(0.0);
+    let rmse = raylume_integrator::metrics::rmse(&ia.channels(), &ib.channels()).unwrap_or(0.0);
     println!("rmse {rmse:.6} ({:.3} of 255)", rmse * 255.0);
     Ok(())
+}
+
+/// An image for `compare`, as linear values: the 8-bit (or 16-bit) channels of PNG and other
+/// integer formats scaled to [0, 1], the floats of OpenEXR and PFM as they are, which must be
+/// finite.
+fn comparable(path: &Path) -> Result<raylume_integrator::Film, Failure> {
+    use raylume_integrator::{Film, MAX_IMAGE_PIXELS};
+    let film = if raylume_integrator::ImageFormat::from_path(path).is_ok() {
+        Film::read(path).map_err(bad_input)?
+    } else {
+        // JPEG (and any other format the image reader was built with), a regular file, decoded
+        // within the memory of the largest image read.
+        let fail = |e: &dyn std::fmt::Display| bad_input(format!("{}: {e}", path.display()));
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+        if !image::ImageFormat::from_extension(&ext).is_some_and(|f| f.reading_enabled()) {
+            return Err(fail(&format!("unknown image format '{ext}' (expected .png, .exr, .pfm or .jpg)")));
+        }
+        if !std::fs::metadata(path).map_err(|e| fail(&e))?.is_file() {
+            return Err(fail(&"not a regular file"));
+        }
+        let mut reader = image::ImageReader::open(path).map_err(|e| fail(&e))?;
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(MAX_IMAGE_PIXELS * 16);
+        reader.limits(limits);
+        let img = reader.decode().map_err(|e| fail(&e))?.into_rgb32f();
+        let pixels = img.pixels().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
+        Film::from_pixels(img.width(), img.height(), pixels)
+    };
+    if let Some(i) = film.pixels().iter().position(|p| !p.is_finite()) {
+        let (x, y) = (i as u32 % film.width(), i as u32 / film.width());
+        return Err(bad_input(format!(
+            "{}: pixel ({x}, {y}) is {}: expected finite values to compare",
+            path.display(),
+            film.pixels()[i]
+        )));
+    }
+    Ok(film)
 }

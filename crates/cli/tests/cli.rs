@@ -137,6 +137,74 @@ fn compare_reports_rmse() {
     assert_eq!(String::from_utf8_lossy(&run.stdout).trim(), "rmse 0.000000 (0.000 of 255)");
 }
 
+/// The RMSE `compare` prints for `a` and `b`.
+fn compared(a: &std::path::Path, b: &std::path::Path) -> f64 {
+    let run = raylume().arg("compare").arg(a).arg(b).output().unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = String::from_utf8_lossy(&run.stdout);
+    out.split_whitespace().nth(1).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("bad compare output {out}"))
+}
+
+/// A PFM file: `tag` `PF` (colour) or `Pf` (grey), the values of its rows from the bottom one up.
+fn pfm(tag: &str, width: u32, height: u32, big_endian: bool, values: &[f32]) -> Vec<u8> {
+    let scale = if big_endian { "1.0" } else { "-1.0" };
+    let mut bytes = format!("{tag}\n{width} {height}\n{scale}\n").into_bytes();
+    for v in values {
+        bytes.extend_from_slice(&if big_endian { v.to_be_bytes() } else { v.to_le_bytes() });
+    }
+    bytes
+}
+
+/// `compare` reads the PFM files `render` writes, in either byte order, colour or grey, rows from
+/// the bottom up, and compares their float values as they are with the same RMSE; a malformed
+/// or short file is refused, naming it.
+#[test]
+fn compare_reads_pfm() {
+    let dir = temp_dir("compare-pfm");
+    let out = |ext: &str| dir.join(format!("d.{ext}"));
+    for ext in ["pfm", "png", "exr"] {
+        let run = raylume().args(["render", "-q", "--width", "40", "--height", "25", "-o"]).arg(out(ext)).output();
+        assert!(run.unwrap().status.success());
+    }
+    assert_eq!(compared(&out("pfm"), &out("pfm")), 0.0);
+    assert_eq!(compared(&out("pfm"), &out("exr")), 0.0);
+    // The PNG differs from the floats by its 8-bit steps alone.
+    let quantised = compared(&out("pfm"), &out("png"));
+    assert!(quantised > 0.0 && quantised < 1.0 / 255.0, "{quantised}");
+
+    // A white top row and a black bottom row, as PNG, then as PFM in each form.
+    let png = dir.join("top.png");
+    raylume_integrator::Film::from_pixels(1, 2, vec![glam::Vec3::ONE, glam::Vec3::ZERO]).write(&png).unwrap();
+    let forms = [
+        pfm("PF", 1, 2, false, &[0.0, 0.0, 0.0, 1.0, 1.0, 1.0]),
+        pfm("PF", 1, 2, true, &[0.0, 0.0, 0.0, 1.0, 1.0, 1.0]),
+        pfm("Pf", 1, 2, false, &[0.0, 1.0]),
+        pfm("Pf", 1, 2, true, &[0.0, 1.0]),
+    ];
+    for (i, bytes) in forms.iter().enumerate() {
+        let path = dir.join(format!("top-{i}.pfm"));
+        std::fs::write(&path, bytes).unwrap();
+        assert_eq!(compared(&png, &path), 0.0, "form {i}");
+    }
+    // Float values are not clamped: 3 against 1 at the top, 2 against 0 at the bottom.
+    let bright = dir.join("bright.pfm");
+    std::fs::write(&bright, pfm("Pf", 1, 2, false, &[2.0, 3.0])).unwrap();
+    assert_eq!(compared(&png, &bright), 2.0);
+
+    let refused = |bytes: &[u8], needle: &str| {
+        let path = dir.join("bad.pfm");
+        std::fs::write(&path, bytes).unwrap();
+        let run = raylume().arg("compare").arg(&png).arg(&path).output().unwrap();
+        assert_eq!(run.status.code(), Some(2));
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(stderr.contains(&format!("{}: {needle}", path.display())), "{stderr}");
+    };
+    refused(b"P6\n1 2\n255\n", "not a PFM file (expected 'PF' or 'Pf', width, height and scale)");
+    refused(b"PF\n1 two\n-1.0\n", "expected the height in pixels, found 'two'");
+    refused(&pfm("PF", 1, 2, false, &[0.0; 5]), "expected 1x2 pixels of 12 bytes (24 bytes), found 20 bytes");
+    refused(&pfm("Pf", 1, 2, false, &[0.0, f32::NAN]), "pixel (0, 0) is [NaN, NaN, NaN]: expected finite values");
+}
+
 #[test]
 fn effects_from_the_command_line_and_crops_match_the_full_image() {
     let dir = temp_dir("effects");

@@ -215,6 +215,41 @@ fn merge_refuses_bad_parts_naming_the_file() {
     assert!(out.exists());
 }
 
+/// An output that is one of the parts, by the same path or another path to the same file, is
+/// refused before anything is written: the part is left as it was.
+#[test]
+fn merge_refuses_an_output_that_is_one_of_the_parts() {
+    let dir = temp_dir("self");
+    let good = parts(&dir, 3, &[], "part");
+    let before = std::fs::read(&good[0]).unwrap();
+    let stderr = refused(&merge(&good[0], &good), "expected an output other than the parts");
+    assert!(stderr.contains(&format!("{}: the output is also the part {}", good[0].display(), good[0].display())));
+    // Relative paths: `part-0.exr` and `./part-0.exr`, and the folder named another way.
+    let in_dir = |args: &[&str]| raylume().current_dir(&dir).arg("merge").args(args).output().unwrap();
+    let run = in_dir(&["part-0.exr", "./part-1.exr", "part-0.exr", "part-2.exr"]);
+    refused(&run, "part-0.exr: the output is also the part part-0.exr");
+    let run = in_dir(&["./part-2.exr", "part-0.exr", "part-1.exr", "part-2.exr"]);
+    refused(&run, "./part-2.exr: the output is also the part part-2.exr");
+    let other = dir.join("..").join(dir.file_name().unwrap()).join("part-1.exr");
+    refused(&merge(&other, &good), &format!("{}: the output is also the part {}", other.display(), good[1].display()));
+    // Shares of the samples too.
+    let shares: Vec<PathBuf> = ["0..2", "2..4"]
+        .iter()
+        .map(|range| {
+            let out = dir.join(format!("share-{}.exr", &range[..1]));
+            ok(&render(&["--samples", range], &out));
+            out
+        })
+        .collect();
+    let share = std::fs::read(&shares[1]).unwrap();
+    refused(&merge(&shares[1], &shares), "expected an output other than the parts");
+    assert_eq!(std::fs::read(&good[0]).unwrap(), before, "the part is unchanged");
+    assert_eq!(std::fs::read(&shares[1]).unwrap(), share, "the share is unchanged");
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left.len(), 5, "nothing else written: {left:?}");
+    ok(&merge(&dir.join("frame.exr"), &good));
+}
+
 /// Shares of the samples (`--samples A..B`, whole passes) merged in pass order equal the
 /// one-machine render byte for byte; missing, overlapping and foreign shares,
 /// and shares that are not whole passes, are refused.

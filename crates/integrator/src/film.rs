@@ -342,7 +342,8 @@ impl Film {
         })
     }
 
-    /// Reads a linear image: PFM (either byte order), OpenEXR, or PNG (8-bit values as `v / 255`).
+    /// Reads a linear image: PFM (colour or grey, either byte order), OpenEXR, or PNG (8-bit values
+    /// as `v / 255`).
     /// Only regular files of at most [`MAX_IMAGE_PIXELS`] pixels are read.
     pub fn read(path: impl AsRef<Path>) -> Result<Film, InputError> {
         let path = path.as_ref();
@@ -505,7 +506,9 @@ fn exr_blocks_within(bytes: &[u8], width: u32) -> Result<(), String> {
     too_many(format!("blocks of {lines} scan lines of {width} pixels"), lines * width).map_or(Ok(()), Err)
 }
 
-/// A colour PFM (`PF`, width, height, scale whose sign gives the byte order, rows bottom first).
+/// A PFM image: `PF` (colour, three floats a pixel) or `Pf` (grey, one float a pixel, read as
+/// equal channels), width, height, a scale whose sign gives the byte order (negative:
+/// little-endian), then the rows from the bottom one up.
 fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
     let mut fields = Vec::new();
     let mut pos = 0;
@@ -520,8 +523,13 @@ fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
         fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
     }
     pos += 1;
-    if fields.len() < 4 || fields[0] != "PF" {
-        return Err("not a colour PFM file (expected 'PF', width, height and scale)".to_owned());
+    let channels = match fields.first().map(String::as_str) {
+        Some("PF") => 3,
+        Some("Pf") => 1,
+        _ => 0,
+    };
+    if fields.len() < 4 || channels == 0 {
+        return Err("not a PFM file (expected 'PF' or 'Pf', width, height and scale)".to_owned());
     }
     let size =
         |s: &str, what: &str| s.parse::<u32>().map_err(|_| format!("expected the {what} in pixels, found '{s}'"));
@@ -535,8 +543,13 @@ fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
         return Err(format!("{w}x{h} pixels: expected 1 to {MAX_IMAGE_PIXELS}"));
     }
     let data = bytes.get(pos..).unwrap_or(&[]);
-    if data.len() as u64 != n * 12 {
-        return Err(format!("expected {w}x{h} pixels of 12 bytes ({} bytes), found {} bytes", n * 12, data.len()));
+    let pixel = 4 * channels;
+    if data.len() as u64 != n * pixel as u64 {
+        return Err(format!(
+            "expected {w}x{h} pixels of {pixel} bytes ({} bytes), found {} bytes",
+            n * pixel as u64,
+            data.len()
+        ));
     }
     let read = |b: &[u8]| {
         let b = [b[0], b[1], b[2], b[3]];
@@ -544,10 +557,13 @@ fn decode_pfm(bytes: &[u8]) -> Result<Film, String> {
     };
     let (w_, h_) = (w as usize, h as usize);
     let mut pixels = vec![Vec3::ZERO; w_ * h_];
-    for (i, c) in data.chunks_exact(12).enumerate() {
+    for (i, c) in data.chunks_exact(pixel).enumerate() {
         // PFM rows are stored bottom first.
         let (row, col) = (i / w_, i % w_);
-        pixels[(h_ - 1 - row) * w_ + col] = Vec3::new(read(&c[0..4]), read(&c[4..8]), read(&c[8..12]));
+        pixels[(h_ - 1 - row) * w_ + col] = match c.len() {
+            12 => Vec3::new(read(&c[0..4]), read(&c[4..8]), read(&c[8..12])),
+            _ => Vec3::splat(read(c)),
+        };
     }
     Ok(Film::from_pixels(w, h, pixels))
 }

@@ -2,6 +2,7 @@
 //! shading, optionally scaled and moved into place ([`load_transformed`], as the p3f `obj` tag
 //! does).
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use raylume_geometry::Vec3A;
@@ -85,7 +86,8 @@ impl Transform {
 }
 
 /// Parses the bytes of an OBJ file ([`load`]); `name` names it in messages, which give the line
-/// of a malformed entry.
+/// of a malformed entry. A leading UTF-8 byte-order mark is skipped (columns count from after it),
+/// and a `#` comment may follow an entry on its line.
 ///
 /// ```
 /// let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n";
@@ -97,6 +99,12 @@ impl Transform {
 /// assert_eq!(err.to_string(), "bad.obj:2: not a readable OBJ file (cannot parse a vertex position): 'v 1 x 0'");
 /// ```
 pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
+    // tobj would read a byte-order mark as part of the first line's tag, and drop that line.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    // tobj reads comments only as whole lines; a comment after an entry is blanked out here, at the
+    // same offsets, so that lines and columns stay those of the file.
+    let uncommented = without_trailing_comments(bytes);
+    let bytes = &*uncommented;
     // tobj turns a face's reference into an offset unchecked (a wrapping product, or a panic where
     // overflow is checked), so references that point at nothing are refused here first. tobj still
     // reads the lines before such a face, so an earlier malformed line is reported as the first.
@@ -191,6 +199,23 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
         Vec::new()
     };
     Ok(Shape::Mesh { vertices, triangles, normals })
+}
+
+/// `bytes` with each comment that follows an entry on its line (`v 0 0 0 # origin`) replaced by
+/// spaces up to the end of the line, so that every byte keeps its offset, line and column; borrowed
+/// as they are when no line has such a comment. Lines that are comments as a whole are kept.
+fn without_trailing_comments(bytes: &[u8]) -> Cow<'_, [u8]> {
+    let mut blanked: Option<Vec<u8>> = None;
+    let mut start = 0;
+    for line in bytes.split(|&b| b == b'\n') {
+        let entry = line.iter().position(|b| !b.is_ascii_whitespace()).filter(|&at| line[at] != b'#');
+        let comment = entry.and_then(|at| line[at..].iter().position(|&b| b == b'#').map(|k| at + k));
+        if let Some(at) = comment {
+            blanked.get_or_insert_with(|| bytes.to_vec())[start + at..start + line.len()].fill(b' ');
+        }
+        start += line.len() + 1;
+    }
+    blanked.map_or(Cow::Borrowed(bytes), Cow::Owned)
 }
 
 /// A face's reference to a position, texture coordinate or normal that is not there.
