@@ -153,6 +153,15 @@ pub fn parse(bytes: &[u8], name: &str) -> Result<Shape, SceneError> {
                     model.name
                 )));
             }
+            if v.abs().max_element() > crate::limits::MAX_COORDINATE {
+                return Err(SceneError::Invalid(format!(
+                    "{}: a vertex of '{}' is {v}: expected coordinates within ±{:e} (squared distances beyond \
+                     overflow single precision)",
+                    path.display(),
+                    model.name,
+                    crate::limits::MAX_COORDINATE
+                )));
+            }
             vertices.push(v);
         }
         let count = (mesh.positions.len() / 3) as u32;

@@ -306,12 +306,15 @@ pub fn rings(count: u32) -> Result<Scene, SceneError> {
 /// A scene that frames `mesh` (a [`Shape::Mesh`]): a pinhole camera whose view holds the mesh's
 /// bounding sphere, a light beside the camera and a grey material.
 pub fn mesh_view(mesh: Shape, width: u32, height: u32) -> Scene {
+    const SMALLEST_FRAMED: f32 = 1e-16;
     let bounds = match &mesh {
         Shape::Mesh { vertices, .. } => Aabb::from_points(vertices.iter().copied()),
         _ => Aabb::from_point(Vec3A::ZERO),
     };
     let centre = bounds.centroid();
-    let radius = (bounds.diagonal().length() * 0.5).max(1e-6);
+    // A mesh of no extent (or one so small that squared distances across it fall below single
+    // precision's normal numbers) is framed as one of this size.
+    let radius = (bounds.diagonal().length() * 0.5).max(SMALLEST_FRAMED);
     let angle_deg = 40.0f32;
     let distance = radius / (angle_deg.to_radians() * 0.5).sin();
     let dir = Vec3A::new(0.35, 0.3, 1.0).normalize();

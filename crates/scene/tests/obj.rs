@@ -71,3 +71,29 @@ fn comments_after_entries_are_ignored() {
         "m.obj:4: not a readable OBJ file (cannot parse a face): 'f 1 2 y'"
     );
 }
+
+/// A vertex beyond ±1e18 (where squared distances overflow single precision) is refused with the
+/// file's name; one within loads.
+#[test]
+fn vertices_beyond_the_largest_coordinate_are_refused() {
+    let within = obj::parse(b"v 0 0 0\nv 1e18 0 0\nv 0 -1e18 0\nf 1 2 3\n", "big.obj");
+    assert!(within.is_ok());
+    let err = obj::parse(b"v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n", "huge.obj").unwrap_err().to_string();
+    assert!(err.starts_with("huge.obj: a vertex of") && err.contains("within ±1e18"), "{err}");
+}
+
+/// A tiny mesh is framed to fill the view as a unit one does: the camera's distance scales with it.
+#[test]
+fn a_tiny_mesh_is_framed_at_its_own_scale() {
+    let tri = |s: f32| Shape::Mesh {
+        vertices: vec![raylume_geometry::Vec3A::ZERO, raylume_geometry::Vec3A::X * s, raylume_geometry::Vec3A::Y * s],
+        triangles: vec![[0, 1, 2]],
+        normals: Vec::new(),
+    };
+    let unit = raylume_scene::procedural::mesh_view(tri(1.0), 64, 64).view;
+    for s in [1e-7f32, 1e-12] {
+        let view = raylume_scene::procedural::mesh_view(tri(s), 64, 64).view;
+        let ratio = (view.from - view.at).length() / (unit.from - unit.at).length() / s;
+        assert!((ratio - 1.0).abs() < 1e-3, "scale {s}: distance ratio {ratio}");
+    }
+}
