@@ -6,9 +6,10 @@
 pub const MAX_RESOLUTION: u32 = 16_384;
 /// Largest image, in pixels.
 pub const MAX_PIXELS: u64 = 1 << 27;
-/// Largest coordinate (and sphere radius) a scene file may give, in magnitude: beyond about 1.8e19
-/// the square of a distance overflows single precision, and shapes would vanish from the image.
-pub const MAX_COORDINATE: f32 = 1e18;
+/// Largest coordinate (and sphere radius) a scene file may give, in magnitude: within it, the square
+/// of any distance in the scene (at most `2√3` times it) stays finite in single precision; beyond,
+/// squared distances overflow and shapes would vanish from the image.
+pub const MAX_COORDINATE: f32 = 4e18;
 /// Largest scene file read, in bytes.
 pub const MAX_FILE_BYTES: u64 = 1 << 32;
 /// Largest OBJ file read, in bytes.

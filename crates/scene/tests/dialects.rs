@@ -262,26 +262,26 @@ fn malformed_variants_say_what_was_expected() {
         (format!("{CAMERA}{f}c\n1 2 3 1\n1 2 3 0.5\n"), "x.p3f:3:1: expected a cone whose base and apex differ"),
         (
             format!("{CAMERA}{f}s 0 0 0 1e-50\n"),
-            "x.p3f:3:9: expected a sphere radius that is not 0, within ±1e18, found '1e-50', which rounds to 0 in single \
+            "x.p3f:3:9: expected a sphere radius that is not 0, within ±4e18, found '1e-50', which rounds to 0 in single \
              precision",
         ),
         (
             format!("{CAMERA}{f}s 0 0 0 0e5\n"),
-            "x.p3f:3:9: expected a sphere radius that is not 0, within ±1e18, found '0e5'",
+            "x.p3f:3:9: expected a sphere radius that is not 0, within ±4e18, found '0e5'",
         ),
         (
             format!("{CAMERA}{f}s 0 0 0 -2e19\n"),
-            "x.p3f:3:9: expected a sphere radius that is not 0, within ±1e18, found '-2e19'",
+            "x.p3f:3:9: expected a sphere radius that is not 0, within ±4e18, found '-2e19'",
         ),
         (
             format!("{CAMERA}{f}p 3\n0 0 0\n1e20 0 0\n0 1 0\n"),
-            "x.p3f:5:1: expected a coordinate (polygon vertex 2 x) within ±1e18 (squared distances beyond overflow \
+            "x.p3f:5:1: expected a coordinate (polygon vertex 2 x) within ±4e18 (squared distances beyond overflow \
              single precision), found '1e20'",
         ),
         (
-            format!("{CAMERA}{f}mesh 3 1\n0 0 0\n1 0 0\n0 -1.5e18 0\n0 1 2\n"),
-            "x.p3f:6:3: expected a coordinate (mesh vertex 3 y) within ±1e18 (squared distances beyond overflow \
-             single precision), found '-1.5e18'",
+            format!("{CAMERA}{f}mesh 3 1\n0 0 0\n1 0 0\n0 -5e18 0\n1 2 3\n"),
+            "x.p3f:6:3: expected a coordinate (mesh vertex 3 y) within ±4e18 (squared distances beyond overflow \
+             single precision), found '-5e18'",
         ),
         ("b 0.1 0.2\nv".to_owned(), "x.p3f:2:1: expected a number (background colour b), found 'v'"),
         ("v\nfrom 0 0 5\nat 0 0 0\nupp 0 1 0\n".to_owned(), "x.p3f:4:1: expected 'up', found 'upp'"),

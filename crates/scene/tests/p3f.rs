@@ -97,7 +97,7 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
         ),
         (
             &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\ns 0 0 0 0"),
-            "bad.p3f:9:9: expected a sphere radius that is not 0, within ±1e18, found '0'",
+            "bad.p3f:9:9: expected a sphere radius that is not 0, within ±4e18, found '0'",
         ),
         (
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 0 512",
