@@ -285,3 +285,18 @@ fn a_missing_cubemap_is_not_looked_for_when_it_will_not_be_used() {
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
     assert_eq!(loaded.scene.env.as_deref(), Some("no_such_sky"), "the scene still names it");
 }
+
+/// A message quotes at most 120 characters of a long line and says how many it leaves out; under
+/// strict loading, what would be skipped is an error that says so.
+#[test]
+fn messages_quote_long_text_cut_and_strict_errors_say_why() {
+    let long = "x".repeat(1_000_000);
+    let text = format!("v from 0 0 5 at 0 0 0 up 0 1 0 angle 40 hither 0 resolution 8 6\nfoo {long}\n");
+    let loaded = parse(&text, "long.p3f", &LoadOptions::default()).unwrap();
+    let warning = loaded.warnings[0].to_string();
+    assert!(warning.len() < 400, "{} bytes", warning.len());
+    assert!(warning.contains(&format!("{}… (999884 more characters)", "x".repeat(116))), "{warning}");
+    let strict = parse(&text, "long.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err();
+    assert!(strict.to_string().starts_with("long.p3f:2:1: unknown tag 'foo'"), "{strict}");
+    assert!(strict.to_string().ends_with("(an error when loading strictly)"), "{strict}");
+}

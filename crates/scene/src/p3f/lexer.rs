@@ -29,17 +29,29 @@ impl Token<'_> {
     }
 }
 
-/// `text` with its invisible or look-alike characters escaped (`\u{a0}`).
+/// Most characters of a text a message quotes; a longer one is cut, saying how much is left out.
+const SHOWN_CHARS: usize = 120;
+
+/// `text` with its invisible or look-alike characters escaped (`\u{a0}`), cut after [`SHOWN_CHARS`]
+/// characters.
 pub(crate) fn shown(text: &str) -> String {
-    text.chars()
-        .map(|c| {
-            if c.is_control() || (c.is_whitespace() && c != ' ') || matches!(c, '\u{200b}'..='\u{200f}' | '\u{feff}') {
-                c.escape_unicode().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
+    let count = text.chars().count();
+    let mut out = escaped(text.chars().take(SHOWN_CHARS));
+    if count > SHOWN_CHARS {
+        out += &format!("… ({} more characters)", count - SHOWN_CHARS);
+    }
+    out
+}
+
+fn escaped(text: impl Iterator<Item = char>) -> String {
+    text.map(|c| {
+        if c.is_control() || (c.is_whitespace() && c != ' ') || matches!(c, '\u{200b}'..='\u{200f}' | '\u{feff}') {
+            c.escape_unicode().to_string()
+        } else {
+            c.to_string()
+        }
+    })
+    .collect()
 }
 
 #[derive(Clone)]

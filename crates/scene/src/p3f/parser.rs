@@ -82,7 +82,7 @@ impl<'a, 'f> Parser<'a, 'f> {
     /// Records a warning, or fails with it as an error under `strict`.
     fn warn(&mut self, token: &Token, message: String) -> Result<(), SceneError> {
         if self.options.strict {
-            return Err(self.error(token, message));
+            return Err(self.error(token, format!("{message} (an error when loading strictly)")));
         }
         self.warnings.push(Warning { file: self.file.to_owned(), line: token.line, column: token.column, message });
         Ok(())
