@@ -95,12 +95,10 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     let reference: Film = match &args.reference {
         Some(path) => {
             let film = Film::read(path).map_err(bad_input)?;
-            if let Some(i) = film.pixels().iter().position(|p| !p.is_finite()) {
-                let (x, y) = (i as u32 % film.width(), i as u32 / film.width());
+            if let Some((x, y, p)) = crate::first_not_finite(&film) {
                 return Err(bad_input(format!(
-                    "{}: pixel ({x}, {y}) (row 0 at the top) is {}: a reference must be finite",
-                    path.display(),
-                    film.pixels()[i]
+                    "{}: pixel ({x}, {y}) (row 0 at the top) is {p}: a reference must be finite",
+                    path.display()
                 )));
             }
             film

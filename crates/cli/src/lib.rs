@@ -1024,13 +1024,17 @@ fn comparable(path: &Path) -> Result<raylume_integrator::Film, Failure> {
         let pixels = img.pixels().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
         Film::from_pixels(img.width(), img.height(), pixels)
     };
-    if let Some(i) = film.pixels().iter().position(|p| !p.is_finite()) {
-        let (x, y) = (i as u32 % film.width(), i as u32 / film.width());
+    if let Some((x, y, p)) = first_not_finite(&film) {
         return Err(bad_input(format!(
-            "{}: pixel ({x}, {y}) is {}: expected finite values to compare",
-            path.display(),
-            film.pixels()[i]
+            "{}: pixel ({x}, {y}) is {p}: expected finite values to compare",
+            path.display()
         )));
     }
     Ok(film)
+}
+
+/// The first pixel of `film` (row 0 at the top) that is not finite: its column, row and value.
+pub(crate) fn first_not_finite(film: &raylume_integrator::Film) -> Option<(u32, u32, glam::Vec3)> {
+    let i = film.pixels().iter().position(|p| !p.is_finite())?;
+    Some((i as u32 % film.width(), i as u32 / film.width(), film.pixels()[i]))
 }
