@@ -258,20 +258,11 @@ fn malformed_variants_say_what_was_expected() {
             format!("{CAMERA}{f}npl 0 0 0 1\n"),
             "x.p3f:3:1: expected a plane normal that is not zero and a plane at a finite distance",
         ),
-        (format!("{CAMERA}{f}c 0 0 0 0 0 1 0 -0\n"), "x.p3f:3:1: expected cone radii that are not both 0"),
-        (format!("{CAMERA}{f}c\n1 2 3 1\n1 2 3 0.5\n"), "x.p3f:3:1: expected a cone whose base and apex differ"),
+        (format!("{CAMERA}{f}s 0 0 0 -2e19\n"), "x.p3f:3:9: expected a sphere radius within ±4e18, found '-2e19'"),
         (
-            format!("{CAMERA}{f}s 0 0 0 1e-50\n"),
-            "x.p3f:3:9: expected a sphere radius that is not 0, within ±4e18, found '1e-50', which rounds to 0 in single \
-             precision",
-        ),
-        (
-            format!("{CAMERA}{f}s 0 0 0 0e5\n"),
-            "x.p3f:3:9: expected a sphere radius that is not 0, within ±4e18, found '0e5'",
-        ),
-        (
-            format!("{CAMERA}{f}s 0 0 0 -2e19\n"),
-            "x.p3f:3:9: expected a sphere radius that is not 0, within ±4e18, found '-2e19'",
+            format!("{CAMERA}{f}c 0 0 0 1 0 0 1 5e18\n"),
+            "x.p3f:3:17: expected a coordinate (cone apex radius) within ±4e18 (squared distances beyond overflow \
+             single precision), found '5e18'",
         ),
         (
             format!("{CAMERA}{f}p 3\n0 0 0\n1e20 0 0\n0 1 0\n"),
@@ -326,6 +317,57 @@ fn warnings_found_before_a_fatal_error_come_with_it() {
         ]
     );
     assert!(e.to_string().starts_with("w.p3f:4:1: expected 8 (NFF"), "{e}");
+}
+
+#[test]
+fn shapes_without_a_surface_are_skipped_with_a_warning() {
+    let text = format!(
+        "{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1e-50\ns 0 0 0 0e5\nsm 0 0 0 1 0 0 0 0 1\nc 0 0 0 0 0 1 0 -0\nc\n1 2 3 1\n1 2 3 0.5\n\
+         s 1 1 1 1\n"
+    );
+    let l = parse(&text, "d.p3f", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        shown,
+        [
+            "d.p3f:3:9: warning: a sphere radius of '1e-50', which rounds to 0 in single precision, leaves no surface: \
+             the sphere is skipped",
+            "d.p3f:4:9: warning: a sphere radius of '0e5' leaves no surface: the sphere is skipped",
+            "d.p3f:5:16: warning: a moving sphere radius of '0' leaves no surface: the sphere is skipped",
+            "d.p3f:6:1: warning: a cone whose radii are both 0 has no surface: skipped",
+            "d.p3f:7:1: warning: a cone whose base and apex are one point has no surface: skipped",
+        ]
+    );
+    assert_eq!(kinds(&l.scene), ["s"], "only the last sphere has a surface");
+    let strict = LoadOptions { strict: true, ..LoadOptions::default() };
+    let e = parse(&text, "d.p3f", &strict).unwrap_err().to_string();
+    assert!(
+        e.starts_with("d.p3f:3:9: a sphere radius of '1e-50'") && e.ends_with("(an error when loading strictly)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_bare_env_tag_names_no_cubemap_and_leaves_the_next_line_alone() {
+    let text = format!("env\n{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1\n");
+    let l = parse(&text, "e.p3f", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(shown, ["e.p3f:1:1: warning: 'env' without a cubemap folder name on its line: ignored"]);
+    assert_eq!((l.scene.env, l.scene.view.width), (None, 8));
+}
+
+#[test]
+fn a_second_camera_block_is_the_one_used_with_a_warning() {
+    let text = format!(
+        "{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1\nv from 0 0 9 at 0 0 0 up 0 1 0 angle 30 hither 0 resolution 4 4\n"
+    );
+    let l = parse(&text, "v.p3f", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        shown,
+        ["v.p3f:4:1: warning: a second camera block replaces the one at line 1: the scene is seen from this one"]
+    );
+    assert_eq!((l.scene.view.from.z, l.scene.view.width), (9.0, 4));
 }
 
 #[test]

@@ -96,8 +96,8 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "bad.p3f:9:9: expected a finite number (sphere radius), found 'inf'",
         ),
         (
-            &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\ns 0 0 0 0"),
-            "bad.p3f:9:9: expected a sphere radius that is not 0, within ±4e18, found '0'",
+            &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\ns 0 0 0 1e19"),
+            "bad.p3f:9:9: expected a sphere radius within ±4e18, found '1e19'",
         ),
         (
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 0 512",

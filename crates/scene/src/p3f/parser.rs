@@ -47,6 +47,8 @@ enum Entity {
 #[derive(Default)]
 struct SceneParts<'a> {
     view: Option<View>,
+    /// The tag of the camera block kept in `view`.
+    view_tag: Option<Token<'a>>,
     background: Vec3,
     env: Option<(String, Token<'a>)>,
     lights: Vec<Light>,
@@ -118,12 +120,8 @@ impl<'a, 'f> Parser<'a, 'f> {
         let v = self.number_of(&t, what)?;
         if !ok(v) {
             // A number written non-zero that rounds to zero in f32 (below about 1.4e-45) says so.
-            let mantissa = t.text.split(['e', 'E']).next().unwrap_or("");
-            let rounded = if v == 0.0 && mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b)) {
-                ", which rounds to 0 in single precision"
-            } else {
-                ""
-            };
+            let rounded =
+                if v == 0.0 && nonzero_mantissa(t.text) { ", which rounds to 0 in single precision" } else { "" };
             return Err(self.error(&t, format!("expected {expected}, found '{}'{rounded}", t.shown())));
         }
         Ok(v)
@@ -232,12 +230,14 @@ impl<'a, 'f> Parser<'a, 'f> {
     fn entity(&mut self, tag: &Token<'a>, parts: &mut SceneParts<'a>) -> Result<Entity, SceneError> {
         Ok(match tag.text {
             "v" => {
-                parts.view = Some(self.view(tag, "from")?);
+                let view = self.view(tag, "from")?;
+                self.keep_view(tag, view, parts)?;
                 Entity::Nothing
             }
             "camera" => {
                 self.p3f2024 = true;
-                parts.view = Some(self.view(tag, "eye")?);
+                let view = self.view(tag, "eye")?;
+                self.keep_view(tag, view, parts)?;
                 Entity::Nothing
             }
             "bclr" => {
@@ -253,7 +253,16 @@ impl<'a, 'f> Parser<'a, 'f> {
                 if tag.text == "fire" {
                     self.extensions.insert("fire");
                 }
-                let name = self.token("an environment map folder name")?;
+                // The folder's name is on the tag's line: a bare tag names nothing, and the next
+                // line's tag stays a tag.
+                let name = match self.lex.peek() {
+                    Some(name) if name.line == tag.line => self.lex.next().expect("peeked"),
+                    _ => {
+                        let message = format!("'{}' without a cubemap folder name on its line: ignored", tag.text);
+                        self.warn(tag, message)?;
+                        return Ok(Entity::Nothing);
+                    }
+                };
                 if let Some((first, _)) = &parts.env {
                     let message = format!("a second cubemap '{}' is ignored: the scene uses '{first}'", name.shown());
                     self.warn(tag, message)?;
@@ -268,14 +277,16 @@ impl<'a, 'f> Parser<'a, 'f> {
             "f" | "mat" => Entity::Material(self.material(tag)?),
             "s" => {
                 let center = self.vec3("sphere centre")?;
-                let radius = self.radius("sphere radius")?;
-                Entity::Object(Shape::Sphere { center, radius })
+                match self.radius("sphere radius")? {
+                    Some(radius) => Entity::Object(Shape::Sphere { center, radius }),
+                    None => Entity::Nothing,
+                }
             }
-            "sm" => Entity::Object(self.moving_sphere(false)?),
+            "sm" => self.moving_sphere(false)?.map_or(Entity::Nothing, Entity::Object),
             "ms" => {
                 self.extensions.insert("ms");
                 let timed = self.form(tag, &[7, 9], "7 (c0 c1 r) or 9 (c0 c1 r t0 t1) numbers")? == 9;
-                Entity::Object(self.moving_sphere(!timed)?)
+                self.moving_sphere(!timed)?.map_or(Entity::Nothing, Entity::Object)
             }
             "box" | "aabb" => {
                 if tag.text == "aabb" {
@@ -326,16 +337,23 @@ impl<'a, 'f> Parser<'a, 'f> {
             }
             "c" => {
                 let base = self.vec3("cone base")?;
-                let base_radius = self.number("cone base radius")?.abs();
+                let base_radius = self.coordinate("cone base radius")?.abs();
                 let apex = self.vec3("cone apex")?;
-                let apex_radius = self.number("cone apex radius")?.abs();
-                if base_radius == 0.0 && apex_radius == 0.0 {
-                    return Err(self.error(tag, "expected cone radii that are not both 0".to_owned()));
+                let apex_radius = self.coordinate("cone apex radius")?.abs();
+                let degenerate = if base_radius == 0.0 && apex_radius == 0.0 {
+                    Some("a cone whose radii are both 0 has no surface: skipped")
+                } else if base == apex {
+                    Some("a cone whose base and apex are one point has no surface: skipped")
+                } else {
+                    None
+                };
+                match degenerate {
+                    Some(message) => {
+                        self.warn(tag, message.to_owned())?;
+                        Entity::Nothing
+                    }
+                    None => Entity::Object(Shape::Cone { base, base_radius, apex, apex_radius }),
                 }
-                if base == apex {
-                    return Err(self.error(tag, "expected a cone whose base and apex differ".to_owned()));
-                }
-                Entity::Object(Shape::Cone { base, base_radius, apex, apex_radius })
             }
             "mesh" => Entity::Object(self.mesh()?),
             "obj" => {
@@ -436,20 +454,46 @@ impl<'a, 'f> Parser<'a, 'f> {
         self.warn(tag, format!("unknown tag '{}'{hint}: skipped '{line}'{also}", tag.shown()))
     }
 
-    /// A sphere's radius: not zero, within [`MAX_COORDINATE`]; a negative radius (NFF: the inside is
-    /// visible) is its size.
-    fn radius(&mut self, what: &str) -> Result<f32, SceneError> {
-        let expected = format!("a {what} that is not 0, within ±{MAX_COORDINATE:e}");
-        Ok(self.number_where(what, &expected, |r| r != 0.0 && r.abs() <= MAX_COORDINATE)?.abs())
+    /// Keeps `view`, the camera block that starts at `tag`; a second block replaces the first with a
+    /// warning at its line.
+    fn keep_view(&mut self, tag: &Token<'a>, view: View, parts: &mut SceneParts<'a>) -> Result<(), SceneError> {
+        if let Some(first) = parts.view_tag.replace(*tag) {
+            let message = format!(
+                "a second camera block replaces the one at line {}: the scene is seen from this one",
+                first.line
+            );
+            self.warn(tag, message)?;
+        }
+        parts.view = Some(view);
+        Ok(())
     }
 
-    fn moving_sphere(&mut self, untimed: bool) -> Result<Shape, SceneError> {
+    /// A sphere's radius, within [`MAX_COORDINATE`]; a negative radius (NFF: the inside is visible)
+    /// is its size. `None`, with a warning (an error when loading strictly), for a radius of 0 in
+    /// single precision: the sphere has no surface and is left out.
+    fn radius(&mut self, what: &str) -> Result<Option<f32>, SceneError> {
+        let t = self.token(format_args!("a number ({what})"))?;
+        let r = self.number_of(&t, what)?;
+        if r.abs() > MAX_COORDINATE {
+            let message = format!("expected a {what} within ±{MAX_COORDINATE:e}, found '{}'", t.shown());
+            return Err(self.error(&t, message));
+        }
+        if r != 0.0 {
+            return Ok(Some(r.abs()));
+        }
+        let written = if nonzero_mantissa(t.text) { ", which rounds to 0 in single precision," } else { "" };
+        self.warn(&t, format!("a {what} of '{}'{written} leaves no surface: the sphere is skipped", t.shown()))?;
+        Ok(None)
+    }
+
+    /// A moving sphere's numbers; `None` (with a warning) for a radius of 0.
+    fn moving_sphere(&mut self, untimed: bool) -> Result<Option<Shape>, SceneError> {
         let center0 = self.vec3("moving sphere centre 0")?;
         let center1 = self.vec3("moving sphere centre 1")?;
         let radius = self.radius("moving sphere radius")?;
         let (time0, time1) =
             if untimed { (0.0, 1.0) } else { (self.number("moving sphere t0")?, self.number("moving sphere t1")?) };
-        Ok(Shape::MovingSphere { center0, center1, radius, time0, time1 })
+        Ok(radius.map(|radius| Shape::MovingSphere { center0, center1, radius, time0, time1 }))
     }
 
     /// `l x y z [r g b [size]]`: a point light, white without a colour; raylume's 7th number makes
@@ -716,4 +760,10 @@ fn plane_points(n: Vec3A, d: f32) -> Option<[Vec3A; 3]> {
     let v = unit.cross(u);
     let points = [p0, p0 + u, p0 + v].map(|p| p.as_vec3a());
     points.iter().all(|p| p.is_finite()).then_some(points)
+}
+
+/// Whether a number's text has a digit other than 0 before its exponent: written as not zero.
+fn nonzero_mantissa(text: &str) -> bool {
+    let mantissa = text.split(['e', 'E']).next().unwrap_or("");
+    mantissa.bytes().any(|b| (b'1'..=b'9').contains(&b))
 }
