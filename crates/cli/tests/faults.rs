@@ -224,18 +224,25 @@ fn a_render_larger_than_the_address_space_limit_is_refused_before_it_starts() {
     let dir = temp_dir("ulimit");
     let scene = background_scene(&dir, 8);
     let out = dir.join("out.png");
-    let under_limit = |kib: u64| {
-        let script = "ulimit -v \"$1\" && exec \"$2\" render \"$3\" --width 4096 --height 4096 -o \"$4\"";
-        let bin = env!("CARGO_BIN_EXE_raylume");
-        Command::new("sh").args(["-c", script, "sh", &kib.to_string(), bin]).arg(&scene).arg(&out).output().unwrap()
+    let under_limit = |kib: u64, crop: &[&str]| {
+        let script = "ulimit -v \"$1\" && shift && exec \"$@\"";
+        let mut command = Command::new("sh");
+        command.args(["-c", script, "sh", &kib.to_string(), env!("CARGO_BIN_EXE_raylume"), "render"]).arg(&scene);
+        command.args(["--width", "4096", "--height", "4096", "-o"]).arg(&out).args(crop);
+        command.output().unwrap()
     };
-    let run = under_limit(700 * 1024);
+    // A crop needs the memory of its own pixels only: a farm's region of an image too large for one
+    // machine renders.
+    let run = under_limit(700 * 1024, &["--crop", "0", "0", "4096", "1024"]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    std::fs::remove_file(&out).unwrap();
+    let run = under_limit(700 * 1024, &[]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert_eq!(run.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("4096 x 4096 pixels") && stderr.contains("address-space limit"), "{stderr}");
     assert!(!stderr.contains("rays (camera"), "refused before the render: {stderr}");
     assert_eq!(others(&dir, &["empty.p3f"]), Vec::<String>::new());
-    let run = under_limit(3 * 1024 * 1024);
+    let run = under_limit(3 * 1024 * 1024, &[]);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     assert!(out.exists());
 }

@@ -191,17 +191,17 @@ impl Steps for Scene {
                 )));
             }
         }
-        let pixels = view.width as u64 * view.height as u64;
-        let bytes = limits::render_bytes(self.primitive_count() as u64, pixels);
+        // The film and its accumulator hold the crop's pixels only (a farm's region is a crop).
+        let [x0, y0, x1, y1] = settings.crop.unwrap_or([0, 0, view.width, view.height]);
+        let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+        let bytes = limits::render_bytes(self.primitive_count() as u64, w as u64 * h as u64);
         let (allowed, what) = limits::render_bytes_allowed();
         if bytes > allowed {
             let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             return Err(SceneError::Invalid(format!(
-                "the render would take about {:.2} GiB ({} primitives, {} x {} pixels), more than the {:.2} GiB {what}",
+                "the render would take about {:.2} GiB ({} primitives, {w} x {h} pixels), more than the {:.2} GiB {what}",
                 gib(bytes),
                 self.primitive_count(),
-                view.width,
-                view.height,
                 gib(allowed)
             )));
         }
