@@ -1,5 +1,5 @@
-//! Triangles of a planar polygon (p3f and NFF `p`, `pp`): a fan for a convex one, ear clipping for
-//! one that is not, so that concave NFF polygons render as drawn.
+//! Triangles of a planar polygon (p3f and NFF `p`, `pp`): a fan for a convex one, ear clipping
+//! (earcut) for one that is not, so that concave NFF polygons render as drawn.
 
 use raylume_geometry::Vec3A;
 
@@ -46,37 +46,23 @@ pub fn triangulate(vertices: &[Vec3A]) -> Vec<[u32; 3]> {
     if (0..n).all(|i| cross(p[(i + n - 1) % n], p[i], p[(i + 1) % n]) >= 0.0) {
         return fan();
     }
-    let mut left: Vec<usize> = (0..n).collect();
-    let mut out = Vec::with_capacity(n - 2);
-    while left.len() > 3 {
-        let m = left.len();
-        let ear = (0..m).find(|&k| {
-            let (a, b, c) = (left[(k + m - 1) % m], left[k], left[(k + 1) % m]);
-            if cross(p[a], p[b], p[c]) <= 0.0 {
-                return false;
-            }
-            // No other corner inside (or on) the candidate ear.
-            !left.iter().any(|&q| {
-                q != a
-                    && q != b
-                    && q != c
-                    && p[q] != p[a]
-                    && p[q] != p[b]
-                    && p[q] != p[c]
-                    && cross(p[a], p[b], p[q]) >= 0.0
-                    && cross(p[b], p[c], p[q]) >= 0.0
-                    && cross(p[c], p[a], p[q]) >= 0.0
-            })
-        });
-        // A polygon that crosses itself has no ear left: the rest as a fan.
-        let Some(k) = ear else { break };
-        out.push([left[(k + m - 1) % m], left[k], left[(k + 1) % m]].map(|i| i as u32));
-        left.remove(k);
+    // Ear clipping as earcut does it: a linked ring, ears found where the last was cut, and the
+    // corners inside a candidate ear looked up by z-order, so large polygons take O(n log n).
+    let mut out: Vec<u32> = Vec::with_capacity(3 * (n - 2));
+    earcut::Earcut::new().earcut(p.iter().map(|&(x, y)| [x, y]), &[] as &[u32], &mut out);
+    // Each triangle keeps the polygon's winding (positive in the plane's coordinates).
+    let mut tris: Vec<[u32; 3]> = out
+        .chunks_exact(3)
+        .map(|t| {
+            let [a, b, c] = [t[0], t[1], t[2]];
+            if cross(p[a as usize], p[b as usize], p[c as usize]) < 0.0 { [a, c, b] } else { [a, b, c] }
+        })
+        .collect();
+    // A polygon that crosses itself may leave corners no triangle covers: the fan stands in for it.
+    if tris.is_empty() {
+        tris = fan();
     }
-    for i in 1..left.len() - 1 {
-        out.push([left[0], left[i], left[i + 1]].map(|i| i as u32));
-    }
-    out
+    tris
 }
 
 #[cfg(test)]
@@ -117,5 +103,67 @@ mod tests {
     fn convex_polygons_keep_their_fan() {
         let square = [Vec3A::ZERO, Vec3A::X, Vec3A::new(1.0, 1.0, 0.0), Vec3A::Y, Vec3A::new(-0.5, 0.5, 0.0)];
         assert_eq!(triangulate(&square), [[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
+    }
+
+    /// Twice the signed area of `v` in the xy plane (shoelace), in f64.
+    fn shoelace(v: &[Vec3A]) -> f64 {
+        (0..v.len())
+            .map(|i| {
+                let (a, b) = (v[i].as_dvec3(), v[(i + 1) % v.len()].as_dvec3());
+                a.x * b.y - a.y * b.x
+            })
+            .sum()
+    }
+
+    proptest::proptest! {
+        /// A star-shaped polygon (corners at rising angles, each at its own distance from the
+        /// centre) is simple: its triangles cover exactly its area, each turning as it does.
+        #[test]
+        fn star_shaped_polygons_are_covered_exactly_once(
+            radii in proptest::collection::vec(0.05f32..1.0, 4..400),
+            clockwise in proptest::bool::ANY,
+        ) {
+            let n = radii.len();
+            let mut v: Vec<Vec3A> = radii
+                .iter()
+                .enumerate()
+                .map(|(i, r)| {
+                    let a = std::f32::consts::TAU * i as f32 / n as f32;
+                    Vec3A::new(r * a.cos(), r * a.sin(), 0.0)
+                })
+                .collect();
+            if clockwise {
+                v.reverse();
+            }
+            let tris = triangulate(&v);
+            proptest::prop_assert!(tris.len() <= n - 2);
+            let expected = shoelace(&v).abs() / 2.0;
+            let covered: f64 = tris.iter().map(|t| shoelace(&t.map(|i| v[i as usize])) / 2.0).sum();
+            proptest::prop_assert!((covered.abs() - expected).abs() <= 1e-9 * expected.max(1.0), "{covered} of {expected}");
+            for t in &tris {
+                let twice = shoelace(&t.map(|i| v[i as usize]));
+                proptest::prop_assert!(twice == 0.0 || (twice > 0.0) != clockwise, "every triangle keeps the winding");
+            }
+        }
+    }
+
+    #[test]
+    fn a_finely_sampled_concave_outline_is_covered_once() {
+        // 100 000 corners, alternately on two circles, written with seven significant digits as a
+        // scene file would hold them: earcut's z-order lookup keeps this to a moment.
+        let n = 100_000;
+        let v: Vec<Vec3A> = (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                let r = if i % 2 == 0 { 1.0 } else { 0.999 };
+                let round = |x: f64| format!("{x:.7}").parse::<f32>().unwrap();
+                Vec3A::new(round(r * a.cos()), round(r * a.sin()), 0.0)
+            })
+            .collect();
+        let tris = triangulate(&v);
+        let expected = shoelace(&v) / 2.0;
+        let covered: f64 = tris.iter().map(|t| shoelace(&t.map(|i| v[i as usize])) / 2.0).sum();
+        assert!((covered - expected).abs() <= 1e-9 * expected, "{covered} of {expected}");
+        assert!(tris.iter().all(|t| shoelace(&t.map(|i| v[i as usize])) >= 0.0));
     }
 }
