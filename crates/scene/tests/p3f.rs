@@ -138,9 +138,19 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "bad.p3f:8:1: expected 8 (NFF: r g b Kd Ks shine T ior) or 11 (p3f: dr dg db Kd sr sg sb Ks shine T ior) \
              numbers after 'f', found 3 numbers",
         ),
+        ("v from 0 0 5 at 0 0 5 up 0 1 0 angle 45 hither 0 resolution 4 4", "bad.p3f:1:14: expected 'from' != 'at'"),
         (
-            "v from 0 0 5 at 0 0 5 up 0 1 0 angle 45 hither 0 resolution 4 4",
-            "bad.p3f:1:26: expected 'from' != 'at' and 'up' not parallel to the view direction",
+            "v from 0 0 5e-30 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 4 4",
+            "bad.p3f:1:18: expected 'from' and 'at' further apart: their distance, 5e-30, squares to 0 in single \
+             precision",
+        ),
+        (
+            "v from 0 0 5 at 0 0 0 up 0 0 -3 angle 45 hither 0 resolution 4 4",
+            "bad.p3f:1:26: expected 'up' not parallel to the view direction (and not too short to give it a side)",
+        ),
+        (
+            "v from 0 0 5 at 0 0 0 up 0 1e-30 0 angle 45 hither 0 resolution 4 4",
+            "bad.p3f:1:26: expected 'up' not parallel to the view direction (and not too short to give it a side)",
         ),
         (
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 180 hither 0 resolution 4 4",

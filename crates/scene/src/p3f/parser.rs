@@ -644,12 +644,27 @@ impl<'a, 'f> Parser<'a, 'f> {
                 _ => focal = self.number_where("focal ratio", "a positive focal ratio", |f| f > 0.0)?,
             }
         }
+        // The camera's frame, formed as the camera forms it: each check names what it lacks.
         let dir = from - at;
-        if dir.length_squared() == 0.0 || up.cross(dir).length_squared() == 0.0 {
-            let t = up_numbers.unwrap_or(*tag);
-            return Err(
-                self.error(&t, "expected 'from' != 'at' and 'up' not parallel to the view direction".to_owned())
+        let n = dir.normalize_or_zero();
+        let at_keyword = seen[1].unwrap_or(*tag);
+        let up_numbers = up_numbers.unwrap_or(*tag);
+        let problem = if dir == Vec3A::ZERO {
+            Some((at_keyword, "expected 'from' != 'at'".to_owned()))
+        } else if n == Vec3A::ZERO {
+            let distance = dir.as_dvec3().length() as f32;
+            let message = format!(
+                "expected 'from' and 'at' further apart: their distance, {distance:e}, squares to 0 in single precision"
             );
+            Some((at_keyword, message))
+        } else if up.cross(n).normalize_or_zero() == Vec3A::ZERO {
+            let message = "expected 'up' not parallel to the view direction (and not too short to give it a side)";
+            Some((up_numbers, message.to_owned()))
+        } else {
+            None
+        };
+        if let Some((t, message)) = problem {
+            return Err(self.error(&t, message));
         }
         Ok(View { from, at, up, angle_deg, hither, width, height, aperture, focal })
     }
