@@ -108,7 +108,7 @@ struct RenderArgs {
     /// Image height (overrides the scene's; give --width too).
     #[arg(long, requires = "width")]
     height: Option<u32>,
-    /// Treat warnings (unknown tags) as errors.
+    /// Treat warnings (unknown tags, skipped lines, shapes without a surface, a missing cubemap) as errors.
     #[arg(long)]
     strict: bool,
     /// A further folder to look for the scene's `env` cubemap in.
@@ -533,8 +533,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     };
     let (scene, warnings, summary) = match (&args.scene, &args.mesh) {
         (_, Some(mesh)) => {
-            let shape = raylume_scene::obj::load(mesh).map_err(bad_input)?;
-            let warnings = never_hit_warning(&shape, mesh).into_iter().collect();
+            let (shape, warnings) = load_mesh(mesh, args.strict)?;
             (procedural::mesh_view(shape, 512, 512), warnings, None)
         }
         (scene, None) => {
@@ -936,20 +935,35 @@ fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
 }
 
 /// The warning for a mesh read from `path` with triangles that are never hit ([`raylume_scene::Shape::never_hit`]).
-fn never_hit_warning(mesh: &raylume_scene::Shape, path: &std::path::Path) -> Option<raylume_scene::Warning> {
-    mesh.never_hit().map(|message| raylume_scene::Warning {
-        file: path.display().to_string(),
-        line: 0,
-        column: 0,
-        message,
-    })
+/// The OBJ mesh that `render --mesh` and `bench --mesh` frame, with what was skipped in it (an error
+/// under `strict`). A mesh with no area at all is refused: nothing of it would be seen.
+fn load_mesh(path: &Path, strict: bool) -> Result<(raylume_scene::Shape, Vec<raylume_scene::Warning>), Failure> {
+    let (mesh, mut warnings) = raylume_scene::obj::load_with_warnings(path).map_err(bad_input)?;
+    if mesh.has_no_area() {
+        return Err(bad_input(format!(
+            "{}: no face of the mesh has an area (its vertices are collinear in f32): nothing to render",
+            path.display()
+        )));
+    }
+    if let Some(message) = mesh.never_hit() {
+        warnings.push(raylume_scene::Warning { file: path.display().to_string(), line: 0, column: 0, message });
+    }
+    if let Some(first) = warnings.first().filter(|_| strict) {
+        let at = if first.line == 0 {
+            first.file.clone()
+        } else {
+            format!("{}:{}:{}", first.file, first.line, first.column)
+        };
+        return Err(bad_input(format!("{at}: {} (an error when loading strictly)", first.message)));
+    }
+    Ok((mesh, warnings))
 }
 
 fn bench_command(args: BenchCli) -> Result<(), Failure> {
     bench_limits(&args)?;
     let scene = if let Some(path) = &args.mesh {
-        let mesh = raylume_scene::obj::load(path).map_err(bad_input)?;
-        if let Some(warning) = never_hit_warning(&mesh, path) {
+        let (mesh, warnings) = load_mesh(path, false)?;
+        for warning in &warnings {
             eprintln!("{warning}");
         }
         procedural::mesh_view(mesh, 1024, 1024)

@@ -136,6 +136,35 @@ impl Shape {
     /// assert_eq!(Shape::Polygon(vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y]).never_hit(), None);
     /// ```
     pub fn never_hit(&self) -> Option<String> {
+        let (what, flat, total) = self.flat_triangles()?;
+        match (flat, total) {
+            (0, _) => None,
+            (f, t) if f == t => Some(format!("{what}: its vertices are collinear in f32 (no area): it is never hit")),
+            (1, t) => {
+                Some(format!("{what}: 1 of its {t} triangles has collinear vertices in f32 (no area): it is never hit"))
+            }
+            (f, t) => Some(format!(
+                "{what}: {f} of its {t} triangles have collinear vertices in f32 (no area): they are never hit"
+            )),
+        }
+    }
+
+    /// Whether every triangle of the shape (a polygon, patch or mesh) is collinear in f32, so that
+    /// nothing of it can be hit ([`Shape::never_hit`]); `false` for the other shapes.
+    ///
+    /// ```
+    /// use raylume_scene::Shape;
+    /// use raylume_geometry::Vec3A;
+    /// assert!(Shape::Polygon(vec![Vec3A::ZERO, Vec3A::X, Vec3A::new(2.0, 0.0, 0.0)]).has_no_area());
+    /// assert!(!Shape::Polygon(vec![Vec3A::ZERO, Vec3A::X, Vec3A::Y]).has_no_area());
+    /// ```
+    pub fn has_no_area(&self) -> bool {
+        self.flat_triangles().is_some_and(|(_, flat, total)| flat == total)
+    }
+
+    /// The kind of a shape made of triangles, how many of its triangles are collinear in f32, and
+    /// how many it has.
+    fn flat_triangles(&self) -> Option<(&'static str, usize, usize)> {
         let flat = |tris: &mut dyn Iterator<Item = [Vec3A; 3]>| {
             let (mut total, mut flat) = (0usize, 0usize);
             for [a, b, c] in tris {
@@ -161,16 +190,7 @@ impl Shape {
             ),
             _ => return None,
         };
-        match (flat, total) {
-            (0, _) => None,
-            (f, t) if f == t => Some(format!("{what}: its vertices are collinear in f32 (no area): it is never hit")),
-            (1, t) => {
-                Some(format!("{what}: 1 of its {t} triangles has collinear vertices in f32 (no area): it is never hit"))
-            }
-            (f, t) => Some(format!(
-                "{what}: {f} of its {t} triangles have collinear vertices in f32 (no area): they are never hit"
-            )),
-        }
+        Some((what, flat, total))
     }
 }
 

@@ -157,22 +157,15 @@ fn messages_show_invisible_characters_and_give_lines() {
     );
 }
 
-/// Faces whose references point at nothing, including those whose offsets overflow (where
-/// overflow is checked, as in the fuzzer's builds, tobj would panic on them), are refused with the
-/// line and column of the reference; a malformed line before them is reported first.
+/// Faces whose vertex references point at nothing, including those whose offsets overflow, are
+/// refused with the line and column of the reference; a malformed line before them is reported
+/// first. A normal reference that points at nothing leaves its face shaded flat, with a warning;
+/// texture coordinates are not used, and their references not followed.
 #[test]
 fn faces_referring_to_nothing_are_refused_where_they_are() {
     let error = |text: &str| obj::parse(text.as_bytes(), "f.obj").unwrap_err().to_string();
     let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n";
     let cases = [
-        (
-            "f 1//1 2//-5 3//1\n",
-            "5:11: not a readable OBJ file (expected a normal reference from 1 to 1 or from -1 to -1)",
-        ),
-        (
-            "f 1//0 2//1 3//1\n",
-            "5:6: not a readable OBJ file (expected a normal reference from 1 to 1 or from -1 to -1)",
-        ),
         ("f 1 2 0\n", "5:7: not a readable OBJ file (expected a vertex reference from 1 to 3 or from -3 to -1)"),
         (
             "f 1 2 -9223372036854775808\n",
@@ -183,8 +176,8 @@ fn faces_referring_to_nothing_are_refused_where_they_are() {
             "5:7: not a readable OBJ file (expected a vertex reference from 1 to 3 or from -3 to -1)",
         ),
         (
-            "f 1/6148914691236517206 2 3\n",
-            "5:5: not a readable OBJ file (a face refers to a texture coordinate, and no texture coordinate precedes it)",
+            "f 1 2 99999999999999999999999\n",
+            "5:7: not a readable OBJ file (expected a vertex reference (an integer), found '99999999999999999999999')",
         ),
     ];
     for (face, expected) in cases {
@@ -193,11 +186,26 @@ fn faces_referring_to_nothing_are_refused_where_they_are() {
     }
     // The first malformed line is the one reported.
     let e = error(&format!("{head}v 1 x 0\nf 1 2 -7\n"));
-    assert_eq!(e, "f.obj:5: not a readable OBJ file (cannot parse a vertex position): 'v 1 x 0'");
-    // References counted back from the face, and faces of fewer than three references (which are
-    // dropped), are read as before.
-    let mesh = obj::parse(format!("{head}f -3//-1 -2//-1 -1//1\nf 1 9\n").as_bytes(), "f.obj").unwrap();
+    assert_eq!(e, "f.obj:5:5: not a readable OBJ file (expected a number (vertex y), found 'x'): 'v 1 x 0'");
+    // References counted back from the face read as forward ones; faces of fewer than three
+    // references are skipped with a warning.
+    let (mesh, warnings) =
+        obj::parse_with_warnings(format!("{head}f -3//-1 -2//-1 -1//1\nf 1 9\n").as_bytes(), "f.obj").unwrap();
     assert!(
         matches!(mesh, Shape::Mesh { ref triangles, ref normals, .. } if triangles.len() == 1 && normals.len() == 1)
     );
+    let shown: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(shown, ["f.obj:6:1: warning: a face of 2 corners has no surface: skipped"]);
+    // Normals that are not there: the face is shaded flat.
+    for (face, column, problem) in [
+        ("f 1//1 2//-5 3//1\n", 11, "expected a normal reference from 1 to 1 or from -1 to -1"),
+        ("f 1//0 2//1 3//1\n", 6, "expected a normal reference from 1 to 1 or from -1 to -1"),
+        ("f 1/6148914691236517206/1 2//9 3//1\n", 30, "expected a normal reference from 1 to 1 or from -1 to -1"),
+    ] {
+        let (mesh, warnings) = obj::parse_with_warnings(format!("{head}{face}").as_bytes(), "f.obj").unwrap();
+        let Shape::Mesh { normals, .. } = mesh else { unreachable!() };
+        assert!(normals.is_empty(), "{face:?}: flat");
+        let shown: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
+        assert_eq!(shown, [format!("f.obj:5:{column}: warning: {problem}: the face is shaded flat")], "{face:?}");
+    }
 }

@@ -710,7 +710,16 @@ impl<'a, 'f> Parser<'a, 'f> {
     fn obj(&mut self) -> Result<Shape, SceneError> {
         let name = self.token("an OBJ file name")?;
         let path = self.options.base_dir.as_deref().unwrap_or(Path::new(".")).join(name.text);
-        let shape = crate::obj::load(&path).map_err(|e| self.error(&name, format!("obj '{}': {e}", name.shown())))?;
+        let (shape, skipped) = crate::obj::load_with_warnings(&path)
+            .map_err(|e| self.error(&name, format!("obj '{}': {e}", name.shown())))?;
+        for w in skipped {
+            if self.options.strict {
+                let at = format!("{}:{}:{}", w.file, w.line, w.column);
+                let message = format!("obj '{}': {at}: {} (an error when loading strictly)", name.shown(), w.message);
+                return Err(self.error(&name, message));
+            }
+            self.warnings.push(w);
+        }
         let mut place = crate::obj::Transform::default();
         if self.lex.peek().is_some_and(|t| t.is_number()) {
             place.scale = self.number_where("obj scale", "a positive obj scale", |s| s > 0.0)?;
