@@ -65,6 +65,7 @@ case_tests! {
     o3_moving_spheres_at_shutter_ends => "O3",
     o4_scene_far_from_the_origin => "O4",
     o5_spheres_and_boxes_never_rehit_themselves => "O5",
+    o6_nearly_coincident_spheres => "O6",
 }
 
 /// Every case of the table has its test, once.

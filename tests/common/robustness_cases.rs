@@ -237,6 +237,14 @@ pub const CASES: &[Case] = &[
         criterion: "0 re-hits",
         run: o5_spheres_and_boxes_never_rehit_themselves,
     },
+    Case {
+        id: "O6",
+        title: "nearly coincident spheres",
+        setup: "40 spheres of radius 1 whose centres and radii step by 1e-7..1e-5 (the SPD shells scene's spiral), \
+                seen from 60 away at 64x48, beside the largest alone",
+        criterion: "no lit pixel away from edges is darker than half the lone sphere's",
+        run: o6_nearly_coincident_spheres,
+    },
 ];
 
 /// f32's unit roundoff, 2^-24.
@@ -1474,6 +1482,51 @@ fn o4_scene_far_from_the_origin() -> Outcome {
         c.check(black == 0, || format!("offset {shift}: {black} darkened pixels"));
     }
     c.outcome(format!("{} (acne would darken lit pixels)", report.join(", ")), None)
+}
+
+fn o6_nearly_coincident_spheres() -> Outcome {
+    let mut c = Checks::default();
+    let render = |spheres: &[(Vec3A, f32)]| {
+        let mut builder = SceneBuilder::new()
+            .camera(Vec3A::new(-6.0, -60.0, 3.0), Vec3A::ZERO, Vec3A::Z, 3.0, 64, 48)
+            .background(Vec3::new(0.1, 0.3, 0.7))
+            .light(Vec3A::new(-100.0, -100.0, 100.0), Vec3::ONE)
+            .material(Phong { diffuse: Vec3::new(1.0, 0.8, 0.4), kd: 0.8, ..Phong::default() });
+        for &(centre, radius) in spheres {
+            builder = builder.sphere(centre, radius);
+        }
+        render_64x48(builder)
+    };
+    let mut report = Vec::new();
+    for step in [1e-7f32, 1e-6, 1e-5] {
+        // Each sphere a step along a turn of a spiral from the last, and a step larger: the visible
+        // surface changes sphere every few pixels, each less than the rays' rounding from the next.
+        let spheres: Vec<(Vec3A, f32)> = (0..40)
+            .map(|i| {
+                let a = i as f32 * 0.7;
+                (Vec3A::new(a.cos(), a.sin(), i as f32) * step, 1.0 + i as f32 * step)
+            })
+            .collect();
+        let film = render(&spheres);
+        let reference = render(&spheres[39..]);
+        let flat = |x: u32, y: u32| {
+            let here = reference.pixel(x, y);
+            [(0i32, 1i32), (1, 0), (0, -1), (-1, 0)].iter().all(|&(dx, dy)| {
+                let (nx, ny) = ((x as i32 + dx).clamp(0, 63) as u32, (y as i32 + dy).clamp(0, 47) as u32);
+                (reference.pixel(nx, ny) - here).abs().max_element() < 0.1
+            })
+        };
+        let black = (0..48u32)
+            .flat_map(|y| (0..64u32).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let (got, want) = (film.pixel(x, y).max_element(), reference.pixel(x, y).max_element());
+                flat(x, y) && want > 0.05 && got < 0.5 * want
+            })
+            .count();
+        report.push(format!("step {step:e}: {black} darkened pixels"));
+        c.check(black == 0, || format!("step {step}: {black} darkened pixels"));
+    }
+    c.outcome(format!("{} (a ray leaving one sphere inside the next would darken lit pixels)", report.join(", ")), None)
 }
 
 fn o5_spheres_and_boxes_never_rehit_themselves() -> Outcome {

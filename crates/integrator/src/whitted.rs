@@ -250,9 +250,23 @@ fn surface<A: Accelerator, M: Material>(world: &World<A, M>, ray: &Ray, found: &
     } else {
         n
     };
+    let hit = Hit { error: spawn_error(&hit, ray), ..hit };
     let above = offset_ray_origin(hit.point, hit.error, n);
     Surface { hit, material: shading.material, entering, n, ns, above }
 }
+
+/// The box around a hit's point that rays leaving it start past: the point's own error, and the
+/// uncertainty of where along `ray` the hit lies. A point reprojected onto its surface is exact to
+/// that surface's scale, but which of two surfaces less than the ray's rounding apart (nearly
+/// coincident spheres) the ray met first is decided only to within `t |d|` times a few ulps; a
+/// ray leaving the point must start outside both.
+#[inline(always)]
+fn spawn_error(hit: &Hit, ray: &Ray) -> Vec3A {
+    hit.error + (ray.dir * hit.t).abs() * raylume_geometry::gamma(SPAWN_ULPS)
+}
+
+/// The ulps of a root's ray parameter that [`spawn_error`] allows for.
+const SPAWN_ULPS: i32 = 16;
 
 /// The shadow ray from `above` (off a surface of normal `n`) to `target` and the distance to it, if
 /// the target is on the side `n` points to.
