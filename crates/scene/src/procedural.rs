@@ -303,8 +303,41 @@ pub fn rings(count: u32) -> Result<Scene, SceneError> {
     })
 }
 
+/// The direction from a mesh's centre to the camera that frames it: from the front, above and to the
+/// right, or, for a flat mesh that this direction would see nearly edge-on, mostly along its normal.
+fn view_direction(mesh: &Shape) -> Vec3A {
+    let standard = Vec3A::new(0.35, 0.3, 1.0).normalize();
+    let Shape::Mesh { vertices, triangles, .. } = mesh else { return standard };
+    let area_normal = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| vertices[i as usize].as_dvec3());
+        (b - a).cross(c - a)
+    };
+    // Triangles' area-weighted normals, each turned to the side of the largest one's: their sum is as
+    // long as their areas' sum only if the mesh is flat.
+    let Some(largest) =
+        triangles.iter().map(area_normal).max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
+    else {
+        return standard;
+    };
+    let (mut sum, mut area) = (glam::DVec3::ZERO, 0.0);
+    for t in triangles {
+        let n = area_normal(t);
+        sum += if n.dot(largest) < 0.0 { -n } else { n };
+        area += n.length();
+    }
+    let flat = area > 0.0 && sum.length() >= 0.98 * area;
+    let normal = sum.normalize_or_zero().as_vec3a();
+    if !flat || normal.dot(standard).abs() >= 0.5 {
+        return standard;
+    }
+    // Along the normal, on the standard direction's side, tilted towards it.
+    let normal = if normal.dot(standard) < 0.0 { -normal } else { normal };
+    (normal + (standard - normal * normal.dot(standard)) * 0.4).normalize()
+}
+
 /// A scene that frames `mesh` (a [`Shape::Mesh`]): a pinhole camera whose view holds the mesh's
-/// bounding sphere, a light beside the camera and a grey material.
+/// bounding sphere, a light beside the camera and a grey material. A flat mesh is seen mostly from
+/// its front.
 pub fn mesh_view(mesh: Shape, width: u32, height: u32) -> Scene {
     const SMALLEST_FRAMED: f32 = 1e-16;
     let bounds = match &mesh {
@@ -317,7 +350,7 @@ pub fn mesh_view(mesh: Shape, width: u32, height: u32) -> Scene {
     let radius = (bounds.diagonal().length() * 0.5).max(SMALLEST_FRAMED);
     let angle_deg = 40.0f32;
     let distance = radius / (angle_deg.to_radians() * 0.5).sin();
-    let dir = Vec3A::new(0.35, 0.3, 1.0).normalize();
+    let dir = view_direction(&mesh);
     let from = centre + dir * distance;
     Scene {
         view: View { from, at: centre, up: Vec3A::Y, angle_deg, hither: 0.0, width, height, aperture: 0.0, focal: 1.0 },

@@ -230,3 +230,27 @@ fn what_is_skipped_is_said() {
         "m.obj: not a readable OBJ file (it is UTF-16 text: expected ASCII or UTF-8, as most editors can save it)"
     );
 }
+
+/// A flat mesh that the standard view would see edge-on is seen from its front; other meshes keep the
+/// standard view.
+#[test]
+fn a_flat_mesh_is_framed_from_its_front() {
+    use raylume_geometry::Vec3A;
+    let standard = Vec3A::new(0.35, 0.3, 1.0).normalize();
+    // A square in the plane that holds the standard direction and the x axis.
+    let (u, v) = (Vec3A::X, standard.cross(Vec3A::X).cross(Vec3A::X).normalize());
+    let normal = u.cross(v).normalize();
+    assert!(normal.dot(standard).abs() < 0.01);
+    let square = Shape::Mesh {
+        vertices: vec![Vec3A::ZERO, u, u + v, v],
+        triangles: vec![[0, 1, 2], [0, 3, 2]],
+        normals: Vec::new(),
+    };
+    let view = raylume_scene::procedural::mesh_view(square, 64, 64).view;
+    let seen = (view.from - view.at).normalize();
+    assert!(seen.dot(normal).abs() > 0.9, "seen along {seen}, normal {normal}");
+    let (vertices, triangles) = raylume_scene::procedural::icosphere(2);
+    let ball = Shape::Mesh { vertices, triangles, normals: Vec::new() };
+    let view = raylume_scene::procedural::mesh_view(ball, 64, 64).view;
+    assert!((view.from - view.at).normalize().abs_diff_eq(standard, 1e-6));
+}
