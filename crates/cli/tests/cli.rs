@@ -480,6 +480,13 @@ fn every_dialect_renders_from_the_command_line_and_says_which_it_read() {
         .output()
         .unwrap();
     assert_eq!(strict.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&strict.stderr);
+    assert!(
+        stderr.contains("course_2019.p3f:4:1: environment map: no folder 'no_such_cubemap'")
+            && stderr.contains("(an error when loading strictly; without the cubemap, --no-env or")
+            && !stderr.contains("escaping rays show"),
+        "{stderr}"
+    );
     assert!(!dir.join("b.png").exists());
 }
 

@@ -460,3 +460,37 @@ fn what_an_obj_skips_is_warned_about_in_the_scene() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn numbers_left_behind_after_an_entry_are_skipped_and_the_entry_read_from_its_line() {
+    // The vertices of a commented-out polygon after a material's line.
+    let text = format!("{CAMERA}l 0 5 5\nf 1 1 1 0 0 4.8 0 0\n#p 3\n0 0 0\n1 0 0\n0 1 0\ns 0 0 0 1\n");
+    let l = parse(&text, "n.nff", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        shown,
+        ["n.nff:5:1: warning: unexpected numbers (the first of 9) '0' where a tag was expected, skipped"]
+    );
+    assert_eq!((kinds(&l.scene), l.scene.materials[0].shine), (vec!["s"], 4.8));
+}
+
+#[test]
+fn a_scene_without_lights_renders_with_a_warning() {
+    let text = format!("{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1\n");
+    let scene = parse(&text, "d.p3f", &LoadOptions::default()).unwrap().scene;
+    let warnings = renders_a_picture_or_not(&scene);
+    assert_eq!(
+        warnings,
+        ["warning: the scene has no lights: its surfaces show only what they reflect or transmit (the shading model \
+          has no ambient term)"]
+    );
+    let strict = RenderOptions { strict: true, ..RenderOptions::default() };
+    let e = scene.render(&strict, &|| {}).unwrap_err().to_string();
+    assert!(e.starts_with("the scene has no lights") && e.ends_with("(an error when rendering strictly)"), "{e}");
+}
+
+/// The render's warnings, whatever its picture.
+fn renders_a_picture_or_not(scene: &Scene) -> Vec<String> {
+    let out = scene.render(&RenderOptions::default(), &|| {}).unwrap();
+    out.warnings.iter().map(|w| w.to_string()).collect()
+}

@@ -152,6 +152,12 @@ impl<'a> Lexer<'a> {
         (0..limit).take_while(|_| ahead.next().is_some_and(|t| t.is_number())).count()
     }
 
+    /// How many of the next tokens (at most `limit`) are numbers on line `line`.
+    pub fn numbers_on_line(&self, line: u32, limit: usize) -> usize {
+        let mut ahead = self.clone();
+        (0..limit).take_while(|_| ahead.next().is_some_and(|t| t.is_number() && t.line == line)).count()
+    }
+
     /// Skips the rest of `token`'s line; returns the text skipped from `token` on (its comment
     /// excluded).
     pub fn skip_line(&mut self, token: &Token<'a>) -> &'a str {

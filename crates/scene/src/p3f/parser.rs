@@ -185,6 +185,13 @@ impl<'a, 'f> Parser<'a, 'f> {
     /// entity's forms take.
     fn form(&mut self, tag: &Token, allowed: &[usize], forms: &str) -> Result<usize, SceneError> {
         let limit = allowed.iter().max().copied().unwrap_or(0) + 1;
+        // The numbers on the tag's line first: lines of stray numbers after it (a polygon's vertices
+        // left behind by a commented-out tag) are then skipped with a warning, as numbers where a
+        // tag belongs.
+        let on_line = self.lex.numbers_on_line(tag.line, limit);
+        if allowed.contains(&on_line) {
+            return Ok(on_line);
+        }
         let n = self.lex.numbers_ahead(limit);
         if allowed.contains(&n) {
             return Ok(n);
@@ -394,10 +401,15 @@ impl<'a, 'f> Parser<'a, 'f> {
         if let Some((name, tag)) = env.as_ref().filter(|_| !self.options.ignore_env) {
             let dirs = env_search_dirs(self.options.base_dir.as_deref(), &self.options.env_dirs);
             if let Err(why) = crate::cubemap::find_cubemap(name, &dirs) {
-                let message = format!("environment map: {why}; escaping rays show the background colour");
-                if let Err(e) = self.warn(tag, message) {
-                    return Err(e.with_earlier_warnings(self.warnings));
+                if self.options.strict {
+                    let message = format!(
+                        "environment map: {why} (an error when loading strictly; without the cubemap, --no-env \
+                         or LoadOptions::ignore_env)"
+                    );
+                    return Err(self.error(tag, message).with_earlier_warnings(self.warnings));
                 }
+                let message = format!("environment map: {why}; escaping rays show the background colour");
+                self.warn(tag, message)?;
             }
         }
         let scene = Scene {
