@@ -1461,27 +1461,32 @@ fn o4_scene_far_from_the_origin() -> Outcome {
     let mut report = Vec::new();
     for shift in [1e3f32, 1e4, 1e5] {
         let film = render(Vec3A::new(shift, 0.0, shift));
-        // Away from edges (where f32 quantisation at the offset may move a silhouette or a shadow by a
-        // fraction of a pixel), no lit pixel may darken.
-        let flat = |x: u32, y: u32| {
-            let here = reference.pixel(x, y);
-            [(0i32, 1i32), (1, 0), (0, -1), (-1, 0)].iter().all(|&(dx, dy)| {
-                let (nx, ny) = ((x as i32 + dx).clamp(0, 63) as u32, (y as i32 + dy).clamp(0, 47) as u32);
-                (reference.pixel(nx, ny) - here).abs().max_element() < 0.1
-            })
-        };
-        let black = (0..48u32)
-            .flat_map(|y| (0..64u32).map(move |x| (x, y)))
-            .filter(|&(x, y)| {
-                let (got, want) = (film.pixel(x, y).max_element(), reference.pixel(x, y).max_element());
-                // Lit pixels only: at the terminator N.L is near zero and tiny values vary relatively.
-                flat(x, y) && want > 0.05 && got < 0.5 * want
-            })
-            .count();
+        let black = darkened_lit_pixels(&film, &reference);
         report.push(format!("offset {shift:e}: {black} darkened pixels"));
         c.check(black == 0, || format!("offset {shift}: {black} darkened pixels"));
     }
     c.outcome(format!("{} (acne would darken lit pixels)", report.join(", ")), None)
+}
+
+/// The pixels of a 64x48 `film` darker than half their value in `reference`, among those that
+/// `reference` shows lit and away from its edges (where f32 quantisation may move a silhouette or a
+/// shadow by a fraction of a pixel, and at the terminator, where N.L is near zero and tiny values
+/// vary relatively): what acne, or a ray starting inside a surface, darkens.
+fn darkened_lit_pixels(film: &Film, reference: &Film) -> usize {
+    let flat = |x: u32, y: u32| {
+        let here = reference.pixel(x, y);
+        [(0i32, 1i32), (1, 0), (0, -1), (-1, 0)].iter().all(|&(dx, dy)| {
+            let (nx, ny) = ((x as i32 + dx).clamp(0, 63) as u32, (y as i32 + dy).clamp(0, 47) as u32);
+            (reference.pixel(nx, ny) - here).abs().max_element() < 0.1
+        })
+    };
+    (0..48u32)
+        .flat_map(|y| (0..64u32).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let (got, want) = (film.pixel(x, y).max_element(), reference.pixel(x, y).max_element());
+            flat(x, y) && want > 0.05 && got < 0.5 * want
+        })
+        .count()
 }
 
 fn o6_nearly_coincident_spheres() -> Outcome {
@@ -1509,20 +1514,7 @@ fn o6_nearly_coincident_spheres() -> Outcome {
             .collect();
         let film = render(&spheres);
         let reference = render(&spheres[39..]);
-        let flat = |x: u32, y: u32| {
-            let here = reference.pixel(x, y);
-            [(0i32, 1i32), (1, 0), (0, -1), (-1, 0)].iter().all(|&(dx, dy)| {
-                let (nx, ny) = ((x as i32 + dx).clamp(0, 63) as u32, (y as i32 + dy).clamp(0, 47) as u32);
-                (reference.pixel(nx, ny) - here).abs().max_element() < 0.1
-            })
-        };
-        let black = (0..48u32)
-            .flat_map(|y| (0..64u32).map(move |x| (x, y)))
-            .filter(|&(x, y)| {
-                let (got, want) = (film.pixel(x, y).max_element(), reference.pixel(x, y).max_element());
-                flat(x, y) && want > 0.05 && got < 0.5 * want
-            })
-            .count();
+        let black = darkened_lit_pixels(&film, &reference);
         report.push(format!("step {step:e}: {black} darkened pixels"));
         c.check(black == 0, || format!("step {step}: {black} darkened pixels"));
     }
