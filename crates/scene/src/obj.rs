@@ -462,7 +462,6 @@ impl<'n> Reader<'n> {
                 return Err(self.error(line, column, "expected a vertex reference, found none".to_owned()));
             };
             // Texture coordinates are not used: their references are not followed.
-            let _ = vt;
             let vn_column = column + v.len() + vt.len() + 2;
             let normal = match resolve(vn, counts[2]) {
                 Ok(n) => n,
