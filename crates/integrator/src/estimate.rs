@@ -36,11 +36,12 @@ pub const REL_MSE_EPS: f64 = 0.01;
 /// (adaptive sampling gives noisy pixels more).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Accumulator {
-    width: u32,
-    height: u32,
-    mean: Vec<Vec3>,
+    /// The image: each pixel's mean over its passes.
+    mean: Film,
     m2: Vec<Vec3>,
     passes: Vec<u32>,
+    /// No pass added yet.
+    fresh: bool,
 }
 
 /// The estimated error of an image against the one its render converges to: the mean over pixels
@@ -72,10 +73,11 @@ impl std::fmt::Display for Estimate {
 }
 
 impl Accumulator {
-    /// An accumulator for `width x height` pixels, with no pass yet.
+    /// An accumulator for `width x height` pixels, with no pass yet. Its memory is zeroed by the
+    /// system as it is first written: a render of one pass never touches the spread.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        Self { width, height, mean: vec![Vec3::ZERO; n], m2: vec![Vec3::ZERO; n], passes: vec![0; n] }
+        Self { mean: Film::black(width, height), m2: bytemuck::zeroed_vec(n), passes: vec![0; n], fresh: true }
     }
 
     /// An accumulator with the state [`parts`](Accumulator::parts) gave: each pixel's mean, sum of
@@ -97,28 +99,35 @@ impl Accumulator {
     /// ```
     pub fn from_parts(width: u32, height: u32, mean: Vec<Vec3>, m2: Vec<Vec3>, passes: Vec<u32>) -> Option<Self> {
         let n = width as usize * height as usize;
-        (mean.len() == n && m2.len() == n && passes.len() == n).then_some(Self { width, height, mean, m2, passes })
+        (mean.len() == n && m2.len() == n && passes.len() == n).then(|| Self {
+            fresh: passes.iter().all(|&k| k == 0),
+            mean: Film::from_pixels(width, height, mean),
+            m2,
+            passes,
+        })
     }
 
     /// The state: each pixel's mean, sum of squared deviations from it, and passes, top row first.
     pub fn parts(&self) -> (&[Vec3], &[Vec3], &[u32]) {
-        (&self.mean, &self.m2, &self.passes)
+        (self.mean.pixels(), &self.m2, &self.passes)
     }
 
     /// Width in pixels.
     pub fn width(&self) -> u32 {
-        self.width
+        self.mean.width()
     }
 
     /// Height in pixels.
     pub fn height(&self) -> u32 {
-        self.height
+        self.mean.height()
     }
 
     /// Adds a pass: each pixel's value (of the pixels `active` marks, all without a mask) joins that
     /// pixel's mean. Panics if the film's size differs.
     pub fn add_pass(&mut self, pass: &Film, active: Option<&[bool]>) {
-        assert_eq!((pass.width(), pass.height()), (self.width, self.height), "a pass of another size");
+        assert_eq!((pass.width(), pass.height()), (self.width(), self.height()), "a pass of another size");
+        self.fresh = false;
+        let mean = self.mean.pixels_mut();
         for (i, &x) in pass.pixels().iter().enumerate() {
             if active.is_some_and(|a| !a[i]) {
                 continue;
@@ -127,19 +136,56 @@ impl Accumulator {
             self.passes[i] = k;
             if k == 1 {
                 // The first pass is the image as it is, bit for bit.
-                self.mean[i] = x;
+                mean[i] = x;
                 continue;
             }
-            let before = self.mean[i];
+            let before = mean[i];
             let after = before + (x - before) / k as f32;
-            self.mean[i] = after;
+            mean[i] = after;
             self.m2[i] += (x - before) * (x - after);
         }
     }
 
+    /// [`Accumulator::add_pass`] of a pass given away: the first pass of every pixel becomes the image
+    /// itself, without a copy. Returns the pass where it is still its own (`None`: it is the image,
+    /// [`Accumulator::image`], bit for bit).
+    ///
+    /// ```
+    /// use raylume_geometry::Vec3;
+    /// use raylume_integrator::{Accumulator, Film};
+    /// let mut acc = Accumulator::new(2, 1);
+    /// let first = Film::from_pixels(2, 1, vec![Vec3::splat(0.5), Vec3::ONE]);
+    /// assert!(acc.add_film(first.clone(), None).is_none());
+    /// assert_eq!(acc.image(), &first);
+    /// let second = Film::from_pixels(2, 1, vec![Vec3::splat(0.7), Vec3::ONE]);
+    /// assert_eq!(acc.add_film(second.clone(), None), Some(second));
+    /// assert_eq!(acc.image().pixel(0, 0), Vec3::splat(0.6));
+    /// ```
+    pub fn add_film(&mut self, pass: Film, active: Option<&[bool]>) -> Option<Film> {
+        assert_eq!((pass.width(), pass.height()), (self.width(), self.height()), "a pass of another size");
+        if active.is_none() && self.fresh {
+            self.fresh = false;
+            self.passes.fill(1);
+            self.mean = pass;
+            return None;
+        }
+        self.add_pass(&pass, active);
+        Some(pass)
+    }
+
     /// The image: each pixel's mean over its passes.
+    pub fn image(&self) -> &Film {
+        &self.mean
+    }
+
+    /// The image: each pixel's mean over its passes (a copy of [`Accumulator::image`]).
     pub fn film(&self) -> Film {
-        Film::from_pixels(self.width, self.height, self.mean.clone())
+        self.mean.clone()
+    }
+
+    /// The image, the accumulator given away.
+    pub fn into_film(self) -> Film {
+        self.mean
     }
 
     /// Passes per pixel, top row first.
@@ -168,19 +214,19 @@ impl Accumulator {
     /// The estimated variance of each pixel's value per channel, as an image (for an EXR's
     /// variance channels), `None` until every pixel has had two passes.
     pub fn variance_film(&self) -> Option<Film> {
-        let pixels = (0..self.mean.len()).map(|i| self.variance(i)).collect::<Option<Vec<_>>>()?;
-        Some(Film::from_pixels(self.width, self.height, pixels))
+        let pixels = (0..self.passes.len()).map(|i| self.variance(i)).collect::<Option<Vec<_>>>()?;
+        Some(Film::from_pixels(self.width(), self.height(), pixels))
     }
 
     /// The image's estimated error, `None` until every pixel has had two passes.
     pub fn estimate(&self) -> Option<Estimate> {
         let min_passes = self.min_passes();
-        if min_passes < 2 || self.mean.is_empty() {
+        if min_passes < 2 || self.passes.is_empty() {
             return None;
         }
-        let n = self.mean.len() as f64;
+        let n = self.passes.len() as f64;
         let (mut sum, mut sum_sq, mut rel) = (0.0f64, 0.0f64, 0.0f64);
-        for (i, m) in self.mean.iter().enumerate() {
+        for (i, m) in self.mean.pixels().iter().enumerate() {
             let v = self.variance(i).expect("every pixel has two passes");
             let per_pixel = v.element_sum() as f64 / 3.0;
             sum += per_pixel;
@@ -214,7 +260,7 @@ impl Accumulator {
         if self.min_passes() < 2 {
             return None;
         }
-        let (w, h) = (self.width as usize, self.height as usize);
+        let (w, h) = (self.width() as usize, self.height() as usize);
         let spread: Vec<f32> = (0..w * h).map(|i| self.pass_variance(i).expect("two passes")).collect();
         let gain: Vec<f64> = (0..w * h)
             .map(|i| {
@@ -314,6 +360,37 @@ mod tests {
         assert_eq!(acc.passes()[40], 4);
         assert_eq!(acc.film().pixel(0, 0), Vec3::splat(0.25), "a masked pixel keeps its value");
         assert_eq!(acc.film().pixel(4, 4), Vec3::splat(3.0));
+    }
+
+    /// Passes given away are accumulated as passes lent are, bit for bit, masked or not, and from a
+    /// state restored by its parts: only the copy of a first pass is left out.
+    #[test]
+    fn passes_given_away_accumulate_as_passes_lent() {
+        let (w, h) = (7u32, 5u32);
+        let mut rng = Pcg32::new(3, 11);
+        let mut pass = || {
+            let pixels = (0..w * h).map(|_| Vec3::new(normal(&mut rng), normal(&mut rng), normal(&mut rng))).collect();
+            Film::from_pixels(w, h, pixels)
+        };
+        let mask: Vec<bool> = (0..w * h).map(|i| i % 3 != 0).collect();
+        let (mut lent, mut given) = (Accumulator::new(w, h), Accumulator::new(w, h));
+        for k in 0..5 {
+            let film = pass();
+            let active = (k == 3).then_some(mask.as_slice());
+            lent.add_pass(&film, active);
+            let back = given.add_film(film.clone(), active);
+            assert_eq!(back.is_none(), k == 0, "pass {k}: only the first is kept as the image");
+            assert_eq!(given, lent, "pass {k}");
+            if k == 1 {
+                let (mean, m2, passes) = given.parts();
+                given = Accumulator::from_parts(w, h, mean.to_vec(), m2.to_vec(), passes.to_vec()).unwrap();
+            }
+        }
+        assert_eq!(given.estimate(), lent.estimate());
+        // A first pass over some pixels only is accumulated in place.
+        let mut masked = Accumulator::new(w, h);
+        assert!(masked.add_film(pass(), Some(&mask)).is_some());
+        assert_eq!(masked.passes().iter().filter(|&&k| k == 1).count(), mask.iter().filter(|&&a| a).count());
     }
 
     #[test]

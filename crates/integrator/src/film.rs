@@ -208,6 +208,17 @@ impl Film {
         &self.pixels
     }
 
+    /// The pixels, top row first, for writing in place.
+    pub(crate) fn pixels_mut(&mut self) -> &mut [Vec3] {
+        &mut self.pixels
+    }
+
+    /// A black film whose memory is left to the system to zero as it is first written (no pass
+    /// over it before the render writes each pixel).
+    pub(crate) fn black(width: u32, height: u32) -> Self {
+        Self { width, height, pixels: bytemuck::zeroed_vec(width as usize * height as usize) }
+    }
+
     /// The pixels' channels, `r g b` per pixel, top row first (for the [`metrics`](crate::metrics)).
     pub fn channels(&self) -> Vec<f32> {
         self.pixels.iter().flat_map(|c| c.to_array()).collect()

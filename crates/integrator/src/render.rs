@@ -267,10 +267,11 @@ where
     let spp = sampler.samples_per_pixel();
     let inv = 1.0 / spp as f32;
     let t_min = camera.t_min();
-    let mut pixels = vec![Vec3::ZERO; cw as usize * ch as usize];
+    let mut film = Film::black(cw, ch);
     if cw == 0 || ch == 0 {
-        return (Film::from_pixels(cw, ch, pixels), RayStats::default());
+        return (film, RayStats::default());
     }
+    let pixels = film.pixels_mut();
     if let Some(mask) = active {
         assert_eq!(mask.len(), pixels.len(), "one flag per pixel of the image or crop");
     }
@@ -333,7 +334,7 @@ where
             a += b;
             a
         });
-    (Film::from_pixels(cw, ch, pixels), stats)
+    (film, stats)
 }
 
 /// Camera rays of neighbouring samples gathered in one query of the accelerator.
@@ -368,6 +369,9 @@ fn gathered_band<A, M, C, S, I>(
     let spp = sampler.samples_per_pixel();
     let t_min = camera.t_min();
     let range = Interval::new(t_min, f32::INFINITY);
+    // The samples are summed into `out`: written once first, as a page of a new film read before it
+    // is written is mapped twice.
+    out.fill(Vec3::ZERO);
     // The batch's camera rays and pixels in their first `sources.len()` slots.
     let mut rays = [Ray::new(Vec3A::ZERO, Vec3A::ZERO); GATHER];
     let mut pixels = [0usize; GATHER];

@@ -300,16 +300,18 @@ impl Steps for Scene {
         let Rendered { accumulator, stats, seconds: render_seconds, samples_per_pass } = rendered;
         let samples = accumulator.passes().iter().map(|&k| k as u64).sum::<u64>() * samples_per_pass;
         let passes = accumulator.passes().iter().copied().max().unwrap_or(0);
+        let (estimate, variance) = (accumulator.estimate(), accumulator.variance_film());
+        let mean_samples_per_pixel = samples as f64 / accumulator.passes().len().max(1) as f64;
         Ok(RenderOutput {
-            film: accumulator.film(),
+            film: accumulator.into_film(),
             stats,
             accel: kind,
             features,
             samples_per_pixel: passes as u64 * samples_per_pass,
-            mean_samples_per_pixel: samples as f64 / accumulator.passes().len().max(1) as f64,
+            mean_samples_per_pixel,
             passes,
-            estimate: accumulator.estimate(),
-            variance: accumulator.variance_film(),
+            estimate,
+            variance,
             build_seconds,
             render_seconds,
             warnings,
@@ -579,7 +581,10 @@ impl Job<'_> {
             partial.map(|p| p.rows_done.iter().flat_map(|&done| std::iter::repeat_n(!done, cw as usize)).collect());
         let mut stats = RayStats::default();
         let mut active: Option<Vec<bool>> = None;
-        let mut pixel_passes = accumulator.passes().iter().map(|&k| k as u64).sum::<u64>();
+        let mut pixel_passes = match self.resume {
+            Some(_) => accumulator.passes().iter().map(|&k| k as u64).sum::<u64>(),
+            None => 0,
+        };
         let mut samples_per_pass = 0u64;
         for pass in first_pass as usize.. {
             // Pass 0 keeps the seed, so a one-pass render is the plain render.
@@ -610,14 +615,15 @@ impl Job<'_> {
             }
             let pass_seconds = pass_start.elapsed().as_secs_f64();
             stats += s;
-            accumulator.add_pass(&film, mask);
+            // A pixel's first pass is the image itself: it is not copied.
+            let film = accumulator.add_film(film, mask);
             let rendered = mask.map_or(pixels, |m| m.iter().filter(|&&a| a).count());
             pixel_passes += rendered as u64;
-            let image = accumulator.film();
+            let image = accumulator.image();
             let estimate = accumulator.estimate();
             let most = accumulator.passes().iter().copied().max().unwrap_or(0) as u64;
             let progress = Progress {
-                film: &image,
+                film: image,
                 samples_per_pixel: most * samples_per_pass,
                 mean_samples_per_pixel: (pixel_passes * samples_per_pass) as f64 / pixels.max(1) as f64,
                 seconds: start.elapsed().as_secs_f64(),
@@ -625,7 +631,7 @@ impl Job<'_> {
                 pixels_rendered: rendered,
                 estimate,
                 accumulator: &accumulator,
-                pass_film: &film,
+                pass_film: film.as_ref().unwrap_or(image),
             };
             if on_pass(&progress).is_break() || (most + 1) * samples_per_pass > limits::MAX_SPP as u64 {
                 break;
