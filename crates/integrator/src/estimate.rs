@@ -40,7 +40,7 @@ pub struct Accumulator {
     mean: Film,
     m2: Vec<Vec3>,
     passes: Vec<u32>,
-    /// No pass added yet.
+    /// No pixel has had a pass yet.
     fresh: bool,
 }
 
@@ -126,12 +126,12 @@ impl Accumulator {
     /// pixel's mean. Panics if the film's size differs.
     pub fn add_pass(&mut self, pass: &Film, active: Option<&[bool]>) {
         assert_eq!((pass.width(), pass.height()), (self.width(), self.height()), "a pass of another size");
-        self.fresh = false;
         let mean = self.mean.pixels_mut();
         for (i, &x) in pass.pixels().iter().enumerate() {
             if active.is_some_and(|a| !a[i]) {
                 continue;
             }
+            self.fresh = false;
             let k = self.passes[i] + 1;
             self.passes[i] = k;
             if k == 1 {
@@ -391,6 +391,11 @@ mod tests {
         let mut masked = Accumulator::new(w, h);
         assert!(masked.add_film(pass(), Some(&mask)).is_some());
         assert_eq!(masked.passes().iter().filter(|&&k| k == 1).count(), mask.iter().filter(|&&a| a).count());
+        // A pass over no pixel leaves the accumulator as it was: the next pass is still a first.
+        let mut untouched = Accumulator::new(w, h);
+        untouched.add_pass(&pass(), Some(&vec![false; (w * h) as usize]));
+        assert_eq!(untouched, Accumulator::new(w, h));
+        assert!(untouched.add_film(pass(), None).is_none());
     }
 
     #[test]
