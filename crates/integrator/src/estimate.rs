@@ -73,8 +73,9 @@ impl std::fmt::Display for Estimate {
 }
 
 impl Accumulator {
-    /// An accumulator for `width x height` pixels, with no pass yet. Its memory is zeroed by the
-    /// system as it is first written: a render of one pass never touches the spread.
+    /// An accumulator for `width x height` pixels, with no pass yet. Its buffers are asked of the
+    /// allocator as zeroed memory, not written over (fresh pages come zeroed from the system): a
+    /// render of one pass writes no spread.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
         Self { mean: Film::black(width, height), m2: bytemuck::zeroed_vec(n), passes: vec![0; n], fresh: true }

@@ -213,8 +213,8 @@ impl Film {
         &mut self.pixels
     }
 
-    /// A black film whose memory is left to the system to zero as it is first written (no pass
-    /// over it before the render writes each pixel).
+    /// A black film, its memory asked of the allocator as zeroed rather than written over (fresh
+    /// pages come zeroed from the system): the render writes each pixel once.
     pub(crate) fn black(width: u32, height: u32) -> Self {
         Self { width, height, pixels: bytemuck::zeroed_vec(width as usize * height as usize) }
     }

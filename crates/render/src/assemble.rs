@@ -581,6 +581,8 @@ impl Job<'_> {
             partial.map(|p| p.rows_done.iter().flat_map(|&done| std::iter::repeat_n(!done, cw as usize)).collect());
         let mut stats = RayStats::default();
         let mut active: Option<Vec<bool>> = None;
+        // A new accumulator's counts are all zero: not read, so that their pages are mapped only as
+        // the first pass writes them.
         let mut pixel_passes = match self.resume {
             Some(_) => accumulator.passes().iter().map(|&k| k as u64).sum::<u64>(),
             None => 0,
