@@ -11,11 +11,11 @@ use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
 use std::arch::x86_64::{
-    __m128, __m256, __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NLT_UQ,
+    __m128, __m256, __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_UQ, _CMP_NLT_UQ,
 };
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
-use super::leaf::{Candidates, Exact, Filter, closest_of_candidates_scalar, exact_out_of_line, occluded_in_leaf};
+use super::leaf::{AnyCandidateHit, Candidates, Exact, Filter, closest_of_candidates_scalar, exact_out_of_line};
 use super::stream::{Block, Found, FrameGroup, Leaves, PacketQuery, Report};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
@@ -575,6 +575,10 @@ fn rejected_lanes(simd: V3, e: &Edges) -> u32 {
 struct Verdict {
     hit: u32,
     open: u32,
+    /// The open lanes whose edge functions are decided and whose distance and bound are finite, but
+    /// too close to call in f32: the scalar test decides them by the f64 plane distance alone
+    /// ([`plane_decisions`]).
+    close: u32,
     t: __m256,
     delta_t: __m256,
     inv: __m256,
@@ -604,7 +608,7 @@ fn verdict_lanes(simd: V3, e: &Edges, candidates: u32, sz: __m256, min: __m256, 
     let sure = avx._mm256_and_ps(avx._mm256_and_ps(certain(e.u, eu), certain(e.v, ev)), certain(e.w, ew));
     let decided = candidates & avx._mm256_movemask_ps(sure) as u32;
     if decided == 0 {
-        return Verdict { hit: 0, open: candidates, t: zero, delta_t: zero, inv: zero };
+        return Verdict { hit: 0, open: candidates, close: 0, t: zero, delta_t: zero, inv: zero };
     }
     let [az, bz, cz] = e.z.map(|z| avx._mm256_mul_ps(sz, z));
     let det = avx._mm256_add_ps(avx._mm256_add_ps(e.u, e.v), e.w);
@@ -651,7 +655,8 @@ fn verdict_lanes(simd: V3, e: &Edges, candidates: u32, sz: __m256, min: __m256, 
     let beyond = avx._mm256_movemask_ps(avx._mm256_and_ps(bounded, avx._mm256_cmp_ps::<_CMP_GT_OQ>(t, delta_t))) as u32;
     let kept = avx._mm256_movemask_ps(avx._mm256_and_ps(finite(det), in_range)) as u32;
     let hit = decided & kept & beyond & !rejected;
-    Verdict { hit, open: candidates & !hit & !rejected, t, delta_t, inv }
+    let close = decided & !rejected & avx._mm256_movemask_ps(bounded) as u32 & !beyond;
+    Verdict { hit, open: candidates & !hit & !rejected, close, t, delta_t, inv }
 }
 
 /// [`Filter::closest_of_candidates`] with the lanes' verdict, distance and barycentrics from AVX
@@ -663,16 +668,26 @@ fn verdict_lanes(simd: V3, e: &Edges, candidates: u32, sz: __m256, min: __m256, 
 fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
     let avx = simd.avx;
     let (leaf, ray, mut range) = (test.leaf, test.ray, test.range);
-    let Verdict { hit, open, t, delta_t, inv } = verdict(simd, e, test.lanes, ray, range);
-    if hit == 0 {
+    let Verdict { hit, open, close, t, delta_t, inv } = verdict(simd, e, test.lanes, ray, range);
+    if hit | close == 0 {
         return closest_of_candidates_scalar(Candidates { lanes: open, ..test });
     }
-    let decided: [f32; 8] = pulp::cast(decided_distances(simd, leaf, ray, t, hit));
+    // The distances the scalar test reports: refined on the vertices' plane for the accepted lanes, the
+    // plane distance itself for the close lanes it accepts (those it rejects are left out).
+    let refined = if hit != 0 { decided_distances(simd, leaf, ray, t, hit) } else { t };
+    let (accepted_close, decided) = if close != 0 {
+        let (accepted, plane) = plane_decisions(simd, leaf, ray, close);
+        (accepted, avx._mm256_blendv_ps(refined, plane, lane_mask(simd, close)))
+    } else {
+        (0, refined)
+    };
+    let decided: [f32; 8] = pulp::cast(decided);
     let (t, delta_t): ([f32; 8], [f32; 8]) = (pulp::cast(t), pulp::cast(delta_t));
     let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
-    for bit in set_bits(hit | open) {
+    let scalar = open & !close;
+    for bit in set_bits(hit | scalar | accepted_close) {
         let i = bit as usize;
-        if open & (1 << bit) != 0 {
+        if scalar & (1 << bit) != 0 {
             test.decide(bit, &mut range);
         } else if t[i] - delta_t[i] <= range.max {
             let t = decided[i];
@@ -682,6 +697,167 @@ fn closest_of_candidates(simd: V3, mut test: Candidates, e: &Edges) -> f32 {
         }
     }
     range.max
+}
+
+/// The lanes of `lanes` as an eight-lane mask: all bits of lane `j` set where bit `j` is.
+#[inline(always)]
+fn lane_mask(simd: V3, lanes: u32) -> __m256 {
+    let avx = simd.avx;
+    let bits = avx._mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    let set = simd.avx2._mm256_and_si256(avx._mm256_set1_epi32(lanes as i32), bits);
+    pulp::cast(simd.avx2._mm256_cmpeq_epi32(set, bits))
+}
+
+/// The scalar test's decision of the `lanes` of `leaf` it decides by the f64 distance to the vertices'
+/// plane alone (edge functions decided, the f32 distance too close to call): the lanes whose triangle
+/// spans a plane, whose plane distance is finite in f32 and beyond its error bound, with that distance
+/// rounded to f32 (zero in the other lanes), for the halves holding a lane of `lanes`
+/// ([`plane_decisions_of_half`]). A ray leaving a triangle's surface meets it again this way, and is
+/// behind it.
+#[inline(always)]
+fn plane_decisions(simd: V3, leaf: &Leaf, ray: &ShearedRay, lanes: u32) -> (u32, __m256) {
+    let avx = simd.avx;
+    let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
+    // No closures here (see `Walk`).
+    macro_rules! splat {
+        ($v:ident) => {
+            [avx._mm256_set1_pd($v[0] as f64), avx._mm256_set1_pd($v[1] as f64), avx._mm256_set1_pd($v[2] as f64)]
+        };
+    }
+    let (o, d) = (splat!(o), splat!(d));
+    macro_rules! half {
+        ($half:literal) => {{
+            macro_rules! wide {
+                ($k:literal, $a:literal) => {
+                    avx._mm256_cvtps_pd(pulp::cast(leaf.quarter($k, $a, $half)))
+                };
+            }
+            let p0 = [wide!(0, 0), wide!(0, 1), wide!(0, 2)];
+            macro_rules! edge {
+                ($k:literal) => {
+                    [
+                        avx._mm256_sub_pd(wide!($k, 0), p0[0]),
+                        avx._mm256_sub_pd(wide!($k, 1), p0[1]),
+                        avx._mm256_sub_pd(wide!($k, 2), p0[2]),
+                    ]
+                };
+            }
+            plane_decisions_of_half(simd, p0, [edge!(1), edge!(2)], o, d)
+        }};
+    }
+    let none = simd.sse._mm_setzero_ps();
+    let (low, t_low) = if lanes & 0x0F != 0 { half!(0) } else { (0, none) };
+    let (high, t_high) = if lanes & 0xF0 != 0 { half!(1) } else { (0, none) };
+    ((low | high << 4) & lanes, avx._mm256_set_m128(t_high, t_low))
+}
+
+/// [`plane_decisions`] of triangle `j` of `leaf` for each lane's ray (of `groups`): the same
+/// operations, the triangle's edges formed once.
+#[inline(always)]
+fn plane_decisions_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGroup], lanes: u32) -> (u32, __m256) {
+    let avx = simd.avx;
+    // No closures here (see `Walk`).
+    macro_rules! vertex {
+        ($k:literal) => {
+            [leaf.v[$k][0][j] as f64, leaf.v[$k][1][j] as f64, leaf.v[$k][2][j] as f64]
+        };
+    }
+    let (p0, p1, p2) = (vertex!(0), vertex!(1), vertex!(2));
+    macro_rules! splat {
+        ($x:expr) => {{
+            let x: [f64; 3] = $x;
+            [avx._mm256_set1_pd(x[0]), avx._mm256_set1_pd(x[1]), avx._mm256_set1_pd(x[2])]
+        }};
+    }
+    let e1 = splat!([p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]]);
+    let e2 = splat!([p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]]);
+    let p0 = splat!(p0);
+    macro_rules! half {
+        ($half:literal) => {{
+            let rays = &groups[$half].rays.lanes;
+            macro_rules! wide {
+                ($v:expr) => {{
+                    let [x, y, z]: [Vec4; 3] = $v;
+                    [avx._mm256_cvtps_pd(x.into()), avx._mm256_cvtps_pd(y.into()), avx._mm256_cvtps_pd(z.into())]
+                }};
+            }
+            plane_decisions_of_half(simd, p0, [e1, e2], wide!(rays.origin), wide!(rays.dir))
+        }};
+    }
+    let none = simd.sse._mm_setzero_ps();
+    let (low, t_low) = if lanes & 0x0F != 0 { half!(0) } else { (0, none) };
+    let (high, t_high) = if lanes & 0xF0 != 0 { half!(1) } else { (0, none) };
+    ((low | high << 4) & lanes, avx._mm256_set_m128(t_high, t_low))
+}
+
+/// Four lanes of [`plane_decisions`]: triangles of first vertex `p0` and edges `e1`, `e2` (in f64,
+/// where the differences of f32 vertices are exact), rays from `o` along `d`. The operations of
+/// `raylume_intersect`'s `plane_distance64` and `plane_distance_error` in their order: the lanes
+/// accepted (four low bits) and their distances rounded to f32.
+#[inline(always)]
+fn plane_decisions_of_half(
+    simd: V3,
+    p0: [__m256d; 3],
+    [e1, e2]: [[__m256d; 3]; 2],
+    o: [__m256d; 3],
+    d: [__m256d; 3],
+) -> (u32, __m128) {
+    let (avx, sse) = (simd.avx, simd.sse);
+    let (zero, sign) = (avx._mm256_setzero_pd(), avx._mm256_set1_pd(-0.0));
+    // No closures here (see `Walk`).
+    macro_rules! abs {
+        ($x:expr) => {
+            avx._mm256_andnot_pd(sign, $x)
+        };
+    }
+    macro_rules! dot {
+        ($a:expr, $x:expr) => {{
+            let (a, x) = ($a, $x);
+            avx._mm256_add_pd(
+                avx._mm256_add_pd(avx._mm256_mul_pd(a[0], x[0]), avx._mm256_mul_pd(a[1], x[1])),
+                avx._mm256_mul_pd(a[2], x[2]),
+            )
+        }};
+    }
+    macro_rules! cross {
+        ($op:ident, $a:expr, $b:expr) => {{
+            let (a, b) = ($a, $b);
+            [
+                avx.$op(avx._mm256_mul_pd(a[1], b[2]), avx._mm256_mul_pd(a[2], b[1])),
+                avx.$op(avx._mm256_mul_pd(a[2], b[0]), avx._mm256_mul_pd(a[0], b[2])),
+                avx.$op(avx._mm256_mul_pd(a[0], b[1]), avx._mm256_mul_pd(a[1], b[0])),
+            ]
+        }};
+    }
+    let n = cross!(_mm256_sub_pd, e1, e2);
+    let square = dot!(n, n);
+    let plane = avx._mm256_and_pd(
+        avx._mm256_cmp_pd::<_CMP_GT_OQ>(square, zero),
+        avx._mm256_cmp_pd::<_CMP_LT_OQ>(square, avx._mm256_set1_pd(f64::INFINITY)),
+    );
+    let q = [avx._mm256_sub_pd(p0[0], o[0]), avx._mm256_sub_pd(p0[1], o[1]), avx._mm256_sub_pd(p0[2], o[2])];
+    let den = dot!(n, d);
+    let t = avx._mm256_div_pd(dot!(n, q), den);
+    let t32 = avx._mm256_cvtpd_ps(t);
+    // `normal64_magnitude`, then the sums of magnitudes that bound the distance's error.
+    macro_rules! abs3 {
+        ($v:expr) => {{
+            let v = $v;
+            [abs!(v[0]), abs!(v[1]), abs!(v[2])]
+        }};
+    }
+    let magnitude = cross!(_mm256_add_pd, abs3!(e1), abs3!(e2));
+    let (mag_q, mag_d) = (dot!(magnitude, abs3!(q)), dot!(magnitude, abs3!(d)));
+    let bound = avx._mm256_div_pd(
+        avx._mm256_div_pd(avx._mm256_add_pd(mag_q, avx._mm256_mul_pd(abs!(t), mag_d)), abs!(den)),
+        avx._mm256_set1_pd((1u64 << 48) as f64),
+    );
+    let finite = sse._mm_cmplt_ps(sse._mm_andnot_ps(sse._mm_set1_ps(-0.0), t32), sse._mm_set1_ps(f32::INFINITY));
+    let kept = avx._mm256_and_pd(
+        avx._mm256_and_pd(plane, avx._mm256_cmp_pd::<_CMP_NEQ_UQ>(den, zero)),
+        avx._mm256_cmp_pd::<_CMP_GT_OQ>(t, bound),
+    );
+    (avx._mm256_movemask_pd(kept) as u32 & sse._mm_movemask_ps(finite) as u32, t32)
 }
 
 /// The f64 plane distances `$distance!(half)` (four lanes each) of the halves that hold a lane of
@@ -805,6 +981,35 @@ pub(super) fn prefetch_slice<T>(simd: V3, items: &[T]) {
     }
 }
 
+/// Whether a lane the any-hit verdict leaves open is hit: the close lanes by their plane distance
+/// ([`plane_decisions`]) within the range, the others by the scalar test.
+struct OccludedOpen<'a> {
+    simd: V3,
+    leaf: &'a Leaf,
+    open: u32,
+    close: u32,
+    ray: &'a ShearedRay,
+    range: Interval,
+}
+
+impl Exact for OccludedOpen<'_> {
+    type Output = bool;
+
+    #[inline(always)]
+    fn run(self) -> bool {
+        let Self { simd, leaf, open, close, ray, range } = self;
+        if close != 0 {
+            let (accepted, t) = plane_decisions(simd, leaf, ray, close);
+            let t: [f32; 8] = pulp::cast(t);
+            if set_bits(accepted).any(|bit| range.contains(t[bit as usize]) && t[bit as usize] > 0.0) {
+                return true;
+            }
+        }
+        let scalar = open & !close;
+        scalar != 0 && AnyCandidateHit { leaf, lanes: scalar, ray, range }.run()
+    }
+}
+
 impl Filter for V3 {
     #[inline(always)]
     fn prefetch(self, leaf: &Leaf) {
@@ -831,8 +1036,8 @@ impl Filter for V3 {
     #[inline(always)]
     fn leaf_occluded(self, leaf: &Leaf, count: usize, ray: &ShearedRay, range: Interval) -> bool {
         let e = edges(self, leaf, ray);
-        let Verdict { hit, open, .. } = verdict(self, &e, candidate_lanes(self, &e, count), ray, range);
-        hit != 0 || occluded_in_leaf(self, leaf, open, ray, range)
+        let Verdict { hit, open, close, .. } = verdict(self, &e, candidate_lanes(self, &e, count), ray, range);
+        hit != 0 || (open != 0 && exact_out_of_line(self, OccludedOpen { simd: self, leaf, open, close, ray, range }))
     }
 
     #[inline(always)]
@@ -988,12 +1193,30 @@ impl Exact for ClosestBlock<'_, '_> {
         let frame = BlockFrame::new(simd, groups, axes);
         let min = avx._mm256_set1_ps(t_min);
         for j in 0..count {
-            let Some((e, Verdict { hit, open, t, delta_t, inv })) = frame.verdict(leaf, j, lanes, min, t_max) else {
+            let Some((e, Verdict { hit, open, close, t, delta_t, inv })) = frame.verdict(leaf, j, lanes, min, t_max)
+            else {
                 continue;
             };
             let bit = j as u32;
-            // The lanes the verdict leaves open: the scalar test.
-            for lane in set_bits(open) {
+            // The close lanes by their plane distance, as the scalar test takes them: within the
+            // distance's bound of the range (the verdict's check), the distance in the range and positive.
+            if close != 0 {
+                let (accepted, plane) = plane_decisions_of_rays(simd, leaf, j, groups, close);
+                let plane: [f32; 8] = pulp::cast(plane);
+                let b: [[f32; 8]; 3] = [e.u, e.v, e.w].map(|x| pulp::cast(avx._mm256_mul_ps(x, inv)));
+                for lane in set_bits(accepted) {
+                    let l = lane as usize;
+                    let mut range = Interval::new(t_min, t_max[l]);
+                    if range.contains(plane[l]) && plane[l] > 0.0 {
+                        let h = TriangleHit { t: plane[l], b: [b[0][l], b[1][l], b[2][l]] };
+                        Candidates { leaf, leaves, first, lanes: 0, ray: &sheared[l], range, found: &mut kept[l] }
+                            .keep(bit, h, &mut range);
+                        t_max[l] = range.max;
+                    }
+                }
+            }
+            // The other lanes the verdict leaves open: the scalar test.
+            for lane in set_bits(open & !close) {
                 let l = lane as usize;
                 let mut range = Interval::new(t_min, t_max[l]);
                 Candidates { leaf, leaves, first, lanes: 0, ray: &sheared[l], range, found: &mut kept[l] }
@@ -1070,11 +1293,21 @@ impl Exact for OccludedBlock<'_, '_> {
         let zero = simd.avx._mm256_setzero_ps();
         let mut active = lanes;
         for j in 0..count {
-            let Some((_, Verdict { hit, open, .. })) = frame.verdict(leaf, j, active, zero, t_max) else {
+            let Some((_, Verdict { hit, open, close, .. })) = frame.verdict(leaf, j, active, zero, t_max) else {
                 continue;
             };
             let mut occluded = hit;
-            for lane in set_bits(open) {
+            if close != 0 {
+                let (accepted, t) = plane_decisions_of_rays(simd, leaf, j, groups, close);
+                let t: [f32; 8] = pulp::cast(t);
+                for lane in set_bits(accepted) {
+                    let (l, t) = (lane as usize, t[lane as usize]);
+                    if Interval::new(0.0, t_max[l]).contains(t) && t > 0.0 {
+                        occluded |= 1 << lane;
+                    }
+                }
+            }
+            for lane in set_bits(open & !close) {
                 let l = lane as usize;
                 if raylume_intersect::watertight_hits(
                     &leaf.triangle(j as u32),
@@ -1140,6 +1373,43 @@ mod tests {
         println!("{hits} hits and {open} open lanes of {lanes}");
         assert!(hits > lanes / 16, "too few hits to tell: {hits}");
         assert!(open * 100 <= lanes, "{open} of {lanes} lanes left to the scalar test");
+    }
+
+    /// A ray leaving a triangle's surface, spawned off its hit point as a renderer spawns it, finds
+    /// that triangle too close to call in f32: the verdict marks it close, the plane distance puts
+    /// the ray behind it, and no lane goes to the scalar test.
+    #[test]
+    fn rays_leaving_a_triangle_are_decided_in_vector_registers() {
+        use rand_core::{Rng, SeedableRng};
+        let Some(simd) = V3::try_new() else { return };
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(11);
+        let mut unit = || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
+        let (mut close, mut scalar) = (0, 0);
+        for i in 0..2000 {
+            let mut p = || Vec3A::new(unit() * 4.0 - 2.0, unit() * 4.0 - 2.0, unit() * 4.0 - 2.0);
+            let tri = Triangle::new(p(), p(), p());
+            if !raylume_intersect::has_unit_normal(&tri) {
+                continue;
+            }
+            let at = TriangleHit { t: 1.0, b: [0.2, 0.3, 0.5] }.hit(&tri);
+            let side = if i % 2 == 0 { at.normal } else { -at.normal };
+            let o = raylume_geometry::offset_ray_origin(at.point, at.error, side);
+            let dir = (p() + side * 3.0).normalize();
+            let dir = if dir.dot(side) > 0.0 { dir } else { -dir };
+            let ray = ShearedRay::new(&Ray::new(o, dir)).unwrap();
+            let leaf = Leaf::new([(tri, 0)]);
+            let (v, occluded, closest) = simd.vectorize(|| {
+                let e = edges(simd, &leaf, &ray);
+                let v = verdict(simd, &e, candidate_lanes(simd, &e, 1), &ray, Interval::POSITIVE);
+                let (_, closest) = closest(simd, &leaf, 1, &ray, Interval::POSITIVE);
+                (v, simd.leaf_occluded(&leaf, 1, &ray, Interval::POSITIVE), closest)
+            });
+            assert_eq!((v.hit, occluded, closest.is_some()), (0, false, false), "ray {i} meets the surface it leaves");
+            close += v.close.count_ones();
+            scalar += (v.open & !v.close).count_ones();
+        }
+        assert!(close > 1000, "{close} rays leaving their triangle marked close");
+        assert!(scalar * 100 <= close, "{scalar} of them left to the scalar test");
     }
 
     /// `filter`'s closest hit among the candidate `lanes` of `leaf` (as leaf number 3), and the new end
@@ -1357,7 +1627,7 @@ mod tests {
             o in arb_point(),
             target in arb_point(),
             through in prop::option::of((0usize..8, 0usize..3, prop_oneof![Just(0.0f32), Just(0.5f32), 0.0f32..1.0])),
-            on_surface in any::<bool>(),
+            start in 0u8..4,
             range in (prop_oneof![Just(0.0f32), 0.0f32..2.0], prop_oneof![Just(f32::INFINITY), Just(f32::MAX), 0.0f32..20.0]),
         ) {
             let Some(simd) = V3::try_new() else { return Ok(()) };
@@ -1377,8 +1647,15 @@ mod tests {
                 Some((i, e, s)) => aim(i, e, s),
                 None => (target + shift) * scale,
             };
-            // A ray leaving the first triangle's centroid: its own surface is within the error bound.
-            let o = if on_surface { (tris[0].0.p[0] + tris[0].0.p[1] + tris[0].0.p[2]) / 3.0 } else { (o + shift) * scale };
+            // A ray leaving the first triangle's centroid (its own surface within the error bound), or
+            // leaving it from either side as a renderer spawns it, off the point's error box.
+            let centre = TriangleHit { t: 1.0, b: [1.0 / 3.0; 3] }.hit(&tris[0].0);
+            let o = match start {
+                0 => (o + shift) * scale,
+                1 => (tris[0].0.p[0] + tris[0].0.p[1] + tris[0].0.p[2]) / 3.0,
+                2 => raylume_geometry::offset_ray_origin(centre.point, centre.error, centre.normal),
+                _ => raylume_geometry::offset_ray_origin(centre.point, centre.error, -centre.normal),
+            };
             prop_assume!(target != o && (target - o).is_finite());
             let Some(ray) = ShearedRay::new(&Ray::new(o, target - o)) else { return Ok(()) };
             let range = Interval::new(range.0 * scale, range.1 * scale);

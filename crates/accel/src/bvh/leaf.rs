@@ -215,11 +215,11 @@ pub(super) fn occluded_in_leaf<F: Filter>(
 }
 
 /// [`occluded_in_leaf`]'s test of a leaf with candidates.
-struct AnyCandidateHit<'a> {
-    leaf: &'a Leaf,
-    lanes: u32,
-    ray: &'a ShearedRay,
-    range: Interval,
+pub(super) struct AnyCandidateHit<'a> {
+    pub leaf: &'a Leaf,
+    pub lanes: u32,
+    pub ray: &'a ShearedRay,
+    pub range: Interval,
 }
 
 impl Exact for AnyCandidateHit<'_> {
