@@ -231,13 +231,10 @@ impl Film {
 
     /// 8-bit RGB as the course writes it: `min(255, floor(c * 255.99))` of the colour clamped to [0, 1].
     pub fn to_rgb8(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.pixels.len() * 3);
-        for c in &self.pixels {
-            // The product is in [0, 255.99], or NaN, which `min` takes to 255; `as` truncates, which
-            // is the floor here.
-            out.extend(c.to_array().map(|c| (c.clamp(0.0, 1.0) * 255.99).min(255.0) as u8));
-        }
-        out
+        // The product is in [0, 255.99], or NaN, which `min` takes to 255; `as` truncates, which is the
+        // floor here. The channels as one flat run, with no array per pixel.
+        let channels: &[f32] = bytemuck::cast_slice(&self.pixels);
+        channels.iter().map(|&c| (c.clamp(0.0, 1.0) * 255.99).min(255.0) as u8).collect()
     }
 
     /// Writes the image in the format its extension names (`.png`: 8-bit; `.exr`, `.pfm`: linear
