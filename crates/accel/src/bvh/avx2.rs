@@ -6,7 +6,7 @@
 //! Queries that use it run inside [`V3::vectorize`], which compiles them with AVX2 enabled; the token
 //! exists only on CPUs that have it (`V3::try_new`), so the crate needs no `unsafe` of its own.
 
-use glam::Vec4;
+use glam::{Vec3A, Vec4};
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
 use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
@@ -716,78 +716,83 @@ fn lane_mask(simd: V3, lanes: u32) -> __m256 {
 /// behind it.
 #[inline(always)]
 fn plane_decisions(simd: V3, leaf: &Leaf, ray: &ShearedRay, lanes: u32) -> (u32, __m256) {
-    let avx = simd.avx;
-    let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
+    let (o, d) = (splat64(simd, ray.origin), splat64(simd, ray.dir));
     // No closures here (see `Walk`).
-    macro_rules! splat {
-        ($v:ident) => {
-            [avx._mm256_set1_pd($v[0] as f64), avx._mm256_set1_pd($v[1] as f64), avx._mm256_set1_pd($v[2] as f64)]
-        };
-    }
-    let (o, d) = (splat!(o), splat!(d));
     macro_rules! half {
         ($half:literal) => {{
-            macro_rules! wide {
-                ($k:literal, $a:literal) => {
-                    avx._mm256_cvtps_pd(pulp::cast(leaf.quarter($k, $a, $half)))
-                };
-            }
-            let p0 = [wide!(0, 0), wide!(0, 1), wide!(0, 2)];
-            macro_rules! edge {
-                ($k:literal) => {
-                    [
-                        avx._mm256_sub_pd(wide!($k, 0), p0[0]),
-                        avx._mm256_sub_pd(wide!($k, 1), p0[1]),
-                        avx._mm256_sub_pd(wide!($k, 2), p0[2]),
-                    ]
-                };
-            }
-            plane_decisions_of_half(simd, p0, [edge!(1), edge!(2)], o, d)
+            let (p0, edges) = half_edges(simd, leaf, $half);
+            plane_decisions_of_half(simd, p0, edges, o, d)
         }};
     }
     let none = simd.sse._mm_setzero_ps();
     let (low, t_low) = if lanes & 0x0F != 0 { half!(0) } else { (0, none) };
     let (high, t_high) = if lanes & 0xF0 != 0 { half!(1) } else { (0, none) };
-    ((low | high << 4) & lanes, avx._mm256_set_m128(t_high, t_low))
+    ((low | high << 4) & lanes, simd.avx._mm256_set_m128(t_high, t_low))
+}
+
+/// The coordinates of `v` in f64, each splatted into four lanes.
+#[inline(always)]
+fn splat64(simd: V3, v: Vec3A) -> [__m256d; 3] {
+    let avx = simd.avx;
+    [avx._mm256_set1_pd(v.x as f64), avx._mm256_set1_pd(v.y as f64), avx._mm256_set1_pd(v.z as f64)]
+}
+
+/// The first vertices of the four triangles of `leaf`'s half `half`, and their edges `p1 - p0` and
+/// `p2 - p0`, in f64 (where the differences of f32 vertices are exact).
+#[inline(always)]
+fn half_edges(simd: V3, leaf: &Leaf, half: usize) -> ([__m256d; 3], [[__m256d; 3]; 2]) {
+    let avx = simd.avx;
+    // No closures here (see `Walk`).
+    macro_rules! wide {
+        ($k:literal, $a:literal) => {
+            avx._mm256_cvtps_pd(pulp::cast(leaf.quarter($k, $a, half)))
+        };
+    }
+    let p0 = [wide!(0, 0), wide!(0, 1), wide!(0, 2)];
+    macro_rules! edge {
+        ($k:literal) => {
+            [
+                avx._mm256_sub_pd(wide!($k, 0), p0[0]),
+                avx._mm256_sub_pd(wide!($k, 1), p0[1]),
+                avx._mm256_sub_pd(wide!($k, 2), p0[2]),
+            ]
+        };
+    }
+    (p0, [edge!(1), edge!(2)])
+}
+
+/// `e1 x e2`, four lanes in f64, with `Triangle::normal64`'s operations in its order.
+#[inline(always)]
+fn cross64(avx: pulp::core_arch::x86::Avx, e1: [__m256d; 3], e2: [__m256d; 3]) -> [__m256d; 3] {
+    [
+        avx._mm256_sub_pd(avx._mm256_mul_pd(e1[1], e2[2]), avx._mm256_mul_pd(e1[2], e2[1])),
+        avx._mm256_sub_pd(avx._mm256_mul_pd(e1[2], e2[0]), avx._mm256_mul_pd(e1[0], e2[2])),
+        avx._mm256_sub_pd(avx._mm256_mul_pd(e1[0], e2[1]), avx._mm256_mul_pd(e1[1], e2[0])),
+    ]
+}
+
+/// `a - b`, four lanes of each coordinate in f64.
+#[inline(always)]
+fn sub64(avx: pulp::core_arch::x86::Avx, a: [__m256d; 3], b: [__m256d; 3]) -> [__m256d; 3] {
+    [avx._mm256_sub_pd(a[0], b[0]), avx._mm256_sub_pd(a[1], b[1]), avx._mm256_sub_pd(a[2], b[2])]
 }
 
 /// [`plane_decisions`] of triangle `j` of `leaf` for each lane's ray (of `groups`): the same
 /// operations, the triangle's edges formed once.
 #[inline(always)]
 fn plane_decisions_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGroup], lanes: u32) -> (u32, __m256) {
-    let avx = simd.avx;
+    let (p0, edges) = triangle_edges(simd, leaf, j);
     // No closures here (see `Walk`).
-    macro_rules! vertex {
-        ($k:literal) => {
-            [leaf.v[$k][0][j] as f64, leaf.v[$k][1][j] as f64, leaf.v[$k][2][j] as f64]
-        };
-    }
-    let (p0, p1, p2) = (vertex!(0), vertex!(1), vertex!(2));
-    macro_rules! splat {
-        ($x:expr) => {{
-            let x: [f64; 3] = $x;
-            [avx._mm256_set1_pd(x[0]), avx._mm256_set1_pd(x[1]), avx._mm256_set1_pd(x[2])]
-        }};
-    }
-    let e1 = splat!([p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]]);
-    let e2 = splat!([p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]]);
-    let p0 = splat!(p0);
     macro_rules! half {
         ($half:literal) => {{
-            let rays = &groups[$half].rays.lanes;
-            macro_rules! wide {
-                ($v:expr) => {{
-                    let [x, y, z]: [Vec4; 3] = $v;
-                    [avx._mm256_cvtps_pd(x.into()), avx._mm256_cvtps_pd(y.into()), avx._mm256_cvtps_pd(z.into())]
-                }};
-            }
-            plane_decisions_of_half(simd, p0, [e1, e2], wide!(rays.origin), wide!(rays.dir))
+            let (o, d) = group_rays(simd, &groups[$half]);
+            plane_decisions_of_half(simd, p0, edges, o, d)
         }};
     }
     let none = simd.sse._mm_setzero_ps();
     let (low, t_low) = if lanes & 0x0F != 0 { half!(0) } else { (0, none) };
     let (high, t_high) = if lanes & 0xF0 != 0 { half!(1) } else { (0, none) };
-    ((low | high << 4) & lanes, avx._mm256_set_m128(t_high, t_low))
+    ((low | high << 4) & lanes, simd.avx._mm256_set_m128(t_high, t_low))
 }
 
 /// Four lanes of [`plane_decisions`]: triangles of first vertex `p0` and edges `e1`, `e2` (in f64,
@@ -819,25 +824,14 @@ fn plane_decisions_of_half(
             )
         }};
     }
-    macro_rules! cross {
-        ($op:ident, $a:expr, $b:expr) => {{
-            let (a, b) = ($a, $b);
-            [
-                avx.$op(avx._mm256_mul_pd(a[1], b[2]), avx._mm256_mul_pd(a[2], b[1])),
-                avx.$op(avx._mm256_mul_pd(a[2], b[0]), avx._mm256_mul_pd(a[0], b[2])),
-                avx.$op(avx._mm256_mul_pd(a[0], b[1]), avx._mm256_mul_pd(a[1], b[0])),
-            ]
-        }};
-    }
-    let n = cross!(_mm256_sub_pd, e1, e2);
+    let n = cross64(avx, e1, e2);
     let square = dot!(n, n);
     let plane = avx._mm256_and_pd(
         avx._mm256_cmp_pd::<_CMP_GT_OQ>(square, zero),
         avx._mm256_cmp_pd::<_CMP_LT_OQ>(square, avx._mm256_set1_pd(f64::INFINITY)),
     );
-    let q = [avx._mm256_sub_pd(p0[0], o[0]), avx._mm256_sub_pd(p0[1], o[1]), avx._mm256_sub_pd(p0[2], o[2])];
-    let den = dot!(n, d);
-    let t = avx._mm256_div_pd(dot!(n, q), den);
+    let q = sub64(avx, p0, o);
+    let (den, t) = plane_quotient(avx, n, q, d);
     let t32 = avx._mm256_cvtpd_ps(t);
     // `normal64_magnitude`, then the sums of magnitudes that bound the distance's error.
     macro_rules! abs3 {
@@ -846,7 +840,12 @@ fn plane_decisions_of_half(
             [abs!(v[0]), abs!(v[1]), abs!(v[2])]
         }};
     }
-    let magnitude = cross!(_mm256_add_pd, abs3!(e1), abs3!(e2));
+    let (a1, a2) = (abs3!(e1), abs3!(e2));
+    let magnitude = [
+        avx._mm256_add_pd(avx._mm256_mul_pd(a1[1], a2[2]), avx._mm256_mul_pd(a1[2], a2[1])),
+        avx._mm256_add_pd(avx._mm256_mul_pd(a1[2], a2[0]), avx._mm256_mul_pd(a1[0], a2[2])),
+        avx._mm256_add_pd(avx._mm256_mul_pd(a1[0], a2[1]), avx._mm256_mul_pd(a1[1], a2[0])),
+    ];
     let (mag_q, mag_d) = (dot!(magnitude, abs3!(q)), dot!(magnitude, abs3!(d)));
     let bound = avx._mm256_div_pd(
         avx._mm256_div_pd(avx._mm256_add_pd(mag_q, avx._mm256_mul_pd(abs!(t), mag_d)), abs!(den)),
@@ -883,49 +882,32 @@ macro_rules! halves_or {
 #[inline(always)]
 fn decided_distances(simd: V3, leaf: &Leaf, ray: &ShearedRay, t: __m256, lanes: u32) -> __m256 {
     let avx = simd.avx;
-    let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
-    let (ox, oy, oz) =
-        (avx._mm256_set1_pd(o[0] as f64), avx._mm256_set1_pd(o[1] as f64), avx._mm256_set1_pd(o[2] as f64));
-    let (dx, dy, dz) =
-        (avx._mm256_set1_pd(d[0] as f64), avx._mm256_set1_pd(d[1] as f64), avx._mm256_set1_pd(d[2] as f64));
+    let (o, d) = (splat64(simd, ray.origin), splat64(simd, ray.dir));
     // No closures here (see `Walk`).
     macro_rules! distance {
         ($half:literal) => {{
-            macro_rules! wide {
-                ($k:literal, $a:literal) => {
-                    avx._mm256_cvtps_pd(pulp::cast(leaf.quarter($k, $a, $half)))
-                };
-            }
-            let (p0x, p0y, p0z) = (wide!(0, 0), wide!(0, 1), wide!(0, 2));
-            let (e1x, e1y, e1z) = (
-                avx._mm256_sub_pd(wide!(1, 0), p0x),
-                avx._mm256_sub_pd(wide!(1, 1), p0y),
-                avx._mm256_sub_pd(wide!(1, 2), p0z),
-            );
-            let (e2x, e2y, e2z) = (
-                avx._mm256_sub_pd(wide!(2, 0), p0x),
-                avx._mm256_sub_pd(wide!(2, 1), p0y),
-                avx._mm256_sub_pd(wide!(2, 2), p0z),
-            );
-            let nx = avx._mm256_sub_pd(avx._mm256_mul_pd(e1y, e2z), avx._mm256_mul_pd(e1z, e2y));
-            let ny = avx._mm256_sub_pd(avx._mm256_mul_pd(e1z, e2x), avx._mm256_mul_pd(e1x, e2z));
-            let nz = avx._mm256_sub_pd(avx._mm256_mul_pd(e1x, e2y), avx._mm256_mul_pd(e1y, e2x));
-            let (qx, qy, qz) = (avx._mm256_sub_pd(p0x, ox), avx._mm256_sub_pd(p0y, oy), avx._mm256_sub_pd(p0z, oz));
-            plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
+            let (p0, [e1, e2]) = half_edges(simd, leaf, $half);
+            plane_distance(avx, cross64(avx, e1, e2), sub64(avx, p0, o), d)
         }};
     }
     halves_or!(simd, lanes, t, distance)
 }
 
 /// `(n . q) / (n . d)` in f64, four lanes, rounded to f32: the distance along `d` to the plane of normal
-/// `n` through the point `q` away, with `plane_distance64`'s operations in its order.
+/// `n` through the point `q` away ([`plane_quotient`]).
 #[inline(always)]
-fn plane_distance(
+fn plane_distance(avx: pulp::core_arch::x86::Avx, n: [__m256d; 3], q: [__m256d; 3], d: [__m256d; 3]) -> __m128 {
+    avx._mm256_cvtpd_ps(plane_quotient(avx, n, q, d).1)
+}
+
+/// `n . d` and `(n . q) / (n . d)` in f64, four lanes, with `plane_distance64`'s operations in its order.
+#[inline(always)]
+fn plane_quotient(
     avx: pulp::core_arch::x86::Avx,
     [nx, ny, nz]: [__m256d; 3],
     [qx, qy, qz]: [__m256d; 3],
     [dx, dy, dz]: [__m256d; 3],
-) -> __m128 {
+) -> (__m256d, __m256d) {
     let den = avx._mm256_add_pd(
         avx._mm256_add_pd(avx._mm256_mul_pd(nx, dx), avx._mm256_mul_pd(ny, dy)),
         avx._mm256_mul_pd(nz, dz),
@@ -934,7 +916,7 @@ fn plane_distance(
         avx._mm256_add_pd(avx._mm256_mul_pd(nx, qx), avx._mm256_mul_pd(ny, qy)),
         avx._mm256_mul_pd(nz, qz),
     );
-    avx._mm256_cvtpd_ps(avx._mm256_div_pd(num, den))
+    (den, avx._mm256_div_pd(num, den))
 }
 
 /// Each lane's `plane` distance where it is finite, else its f32 distance `t`.
@@ -1138,33 +1120,50 @@ fn eight(simd: V3, low: Vec4, high: Vec4) -> __m256 {
 #[inline(always)]
 fn decided_distances_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGroup], t: __m256, lanes: u32) -> __m256 {
     let avx = simd.avx;
-    let p = |k: usize| [leaf.v[k][0][j] as f64, leaf.v[k][1][j] as f64, leaf.v[k][2][j] as f64];
-    let (p0, p1, p2) = (p(0), p(1), p(2));
-    let e1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
-    let e2 = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
-    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-    let (nx, ny, nz) = (avx._mm256_set1_pd(n[0]), avx._mm256_set1_pd(n[1]), avx._mm256_set1_pd(n[2]));
-    let (px, py, pz) = (avx._mm256_set1_pd(p0[0]), avx._mm256_set1_pd(p0[1]), avx._mm256_set1_pd(p0[2]));
+    let (p0, [e1, e2]) = triangle_edges(simd, leaf, j);
+    let n = cross64(avx, e1, e2);
     // No closures here (see `Walk`).
     macro_rules! distance {
         ($half:literal) => {{
-            let group = &groups[$half];
-            macro_rules! wide {
-                ($four:expr) => {
-                    avx._mm256_cvtps_pd($four.into())
-                };
-            }
-            let (qx, qy, qz) = (
-                avx._mm256_sub_pd(px, wide!(group.rays.lanes.origin[0])),
-                avx._mm256_sub_pd(py, wide!(group.rays.lanes.origin[1])),
-                avx._mm256_sub_pd(pz, wide!(group.rays.lanes.origin[2])),
-            );
-            let [dx, dy, dz] = group.rays.lanes.dir;
-            let (dx, dy, dz) = (wide!(dx), wide!(dy), wide!(dz));
-            plane_distance(avx, [nx, ny, nz], [qx, qy, qz], [dx, dy, dz])
+            let (o, d) = group_rays(simd, &groups[$half]);
+            plane_distance(avx, n, sub64(avx, p0, o), d)
         }};
     }
     halves_or!(simd, lanes, t, distance)
+}
+
+/// Triangle `j` of `leaf` as [`half_edges`] gives four: its first vertex and its edges in f64, each
+/// splatted into four lanes.
+#[inline(always)]
+fn triangle_edges(simd: V3, leaf: &Leaf, j: usize) -> ([__m256d; 3], [[__m256d; 3]; 2]) {
+    let avx = simd.avx;
+    // No closures here (see `Walk`).
+    macro_rules! vertex {
+        ($k:literal) => {
+            [leaf.v[$k][0][j] as f64, leaf.v[$k][1][j] as f64, leaf.v[$k][2][j] as f64]
+        };
+    }
+    let (p0, p1, p2) = (vertex!(0), vertex!(1), vertex!(2));
+    macro_rules! splat {
+        ($x:expr) => {{
+            let x: [f64; 3] = $x;
+            [avx._mm256_set1_pd(x[0]), avx._mm256_set1_pd(x[1]), avx._mm256_set1_pd(x[2])]
+        }};
+    }
+    let e1 = splat!([p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]]);
+    let e2 = splat!([p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]]);
+    (splat!(p0), [e1, e2])
+}
+
+/// The origins and directions of `group`'s four rays in f64, lane by lane.
+#[inline(always)]
+fn group_rays(simd: V3, group: &FrameGroup) -> ([__m256d; 3], [__m256d; 3]) {
+    let avx = simd.avx;
+    let ([ox, oy, oz], [dx, dy, dz]) = (group.rays.lanes.origin, group.rays.lanes.dir);
+    (
+        [avx._mm256_cvtps_pd(ox.into()), avx._mm256_cvtps_pd(oy.into()), avx._mm256_cvtps_pd(oz.into())],
+        [avx._mm256_cvtps_pd(dx.into()), avx._mm256_cvtps_pd(dy.into()), avx._mm256_cvtps_pd(dz.into())],
+    )
 }
 
 /// [`Filter::closest_in_block`]: each triangle of the leaf in turn for all the block's rays at once, its
