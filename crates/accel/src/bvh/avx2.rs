@@ -708,6 +708,18 @@ fn lane_mask(simd: V3, lanes: u32) -> __m256 {
     pulp::cast(simd.avx2._mm256_cmpeq_epi32(set, bits))
 }
 
+/// The accepted lanes of `$lanes` and their distances, from `$half!(half)` ([`plane_decisions_of_half`])
+/// of the halves that hold a lane of `$lanes` (the others' lanes rejected, their distances zero). A
+/// macro: each caller's `$half` is a macro too (see `Walk`).
+macro_rules! plane_halves {
+    ($simd:ident, $lanes:ident, $half:ident) => {{
+        let none = $simd.sse._mm_setzero_ps();
+        let (low, t_low) = if $lanes & 0x0F != 0 { $half!(0) } else { (0, none) };
+        let (high, t_high) = if $lanes & 0xF0 != 0 { $half!(1) } else { (0, none) };
+        ((low | high << 4) & $lanes, $simd.avx._mm256_set_m128(t_high, t_low))
+    }};
+}
+
 /// The scalar test's decision of the `lanes` of `leaf` it decides by the f64 distance to the vertices'
 /// plane alone (edge functions decided, the f32 distance too close to call): the lanes whose triangle
 /// spans a plane, whose plane distance is finite in f32 and beyond its error bound, with that distance
@@ -724,10 +736,7 @@ fn plane_decisions(simd: V3, leaf: &Leaf, ray: &ShearedRay, lanes: u32) -> (u32,
             plane_decisions_of_half(simd, p0, edges, o, d)
         }};
     }
-    let none = simd.sse._mm_setzero_ps();
-    let (low, t_low) = if lanes & 0x0F != 0 { half!(0) } else { (0, none) };
-    let (high, t_high) = if lanes & 0xF0 != 0 { half!(1) } else { (0, none) };
-    ((low | high << 4) & lanes, simd.avx._mm256_set_m128(t_high, t_low))
+    plane_halves!(simd, lanes, half)
 }
 
 /// The coordinates of `v` in f64, each splatted into four lanes.
@@ -789,10 +798,7 @@ fn plane_decisions_of_rays(simd: V3, leaf: &Leaf, j: usize, groups: &[FrameGroup
             plane_decisions_of_half(simd, p0, edges, o, d)
         }};
     }
-    let none = simd.sse._mm_setzero_ps();
-    let (low, t_low) = if lanes & 0x0F != 0 { half!(0) } else { (0, none) };
-    let (high, t_high) = if lanes & 0xF0 != 0 { half!(1) } else { (0, none) };
-    ((low | high << 4) & lanes, simd.avx._mm256_set_m128(t_high, t_low))
+    plane_halves!(simd, lanes, half)
 }
 
 /// Four lanes of [`plane_decisions`]: triangles of first vertex `p0` and edges `e1`, `e2` (in f64,
