@@ -75,7 +75,7 @@ pub fn sphere_roots(sphere: &Sphere, rays: &RayLanes, min: Vec4, max: Vec4) -> L
     }
     let c = sphere.center;
     let center = [Vec4::splat(c.x), Vec4::splat(c.y), Vec4::splat(c.z)];
-    roots(rays.origin, rays.dir, center, Vec4::splat(sphere.radius), min, max)
+    roots(rays.origin, rays.dir, center, Vec4::splat(sphere.radius), min, max, 0b1111)
 }
 
 /// Up to four spheres, lane by lane, for one ray to test them all at once ([`spheres_roots`]).
@@ -151,16 +151,24 @@ impl SphereLanes {
 pub fn spheres_roots(spheres: &SphereLanes, ray: &Ray, min: f32, max: f32) -> LaneRoots {
     let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
     let r = spheres.radius;
-    let LaneRoots { t, hit, undecided } =
-        roots(splat(ray.origin), splat(ray.dir), spheres.center, r, Vec4::splat(min), Vec4::splat(max));
     // The radii the f32 routine takes (`sphere_radius_in_range`), lane by lane.
     let in_range = (r.cmpge(Vec4::splat(1e-15)) & r.cmple(Vec4::splat(1e15))).bitmask();
     let used = spheres.used;
+    let LaneRoots { t, hit, undecided } = roots(
+        splat(ray.origin),
+        splat(ray.dir),
+        spheres.center,
+        r,
+        Vec4::splat(min),
+        Vec4::splat(max),
+        used & in_range,
+    );
     LaneRoots { t, hit: hit & in_range & used, undecided: (undecided | !in_range) & used }
 }
 
 /// The one-ray routine's roots (`sphere_root` in f32, with the squares that cancel in f64), lane by
 /// lane: rays from `origin` along `dir` on spheres of `center` and `radius`, within `[min, max]`.
+/// Where every lane of `lanes` passes clear of its sphere, no lane hits and none is undecided.
 #[inline(always)]
 fn roots(
     [ox, oy, oz]: [Vec4; 3],
@@ -169,18 +177,33 @@ fn roots(
     radius: Vec4,
     min: Vec4,
     max: Vec4,
+    lanes: u32,
 ) -> LaneRoots {
     let (fx, fy, fz) = (ox - cx, oy - cy, oz - cz);
     // `dot` as glam forms it: (x x' + y y') + z z'.
     let a = dx * dx + dy * dy + dz * dz;
     let half_b = fx * dx + fy * dy + fz * dz;
+    let s = half_b / a;
+    // From the centre to the ray's closest point, as the discriminant forms it.
+    let p = [fx - dx * s, fy - dy * s, fz - dz * s];
+    // Its square in f32 is within 2^-21 of the f64 one (and the radius's within 2^-24): above the
+    // radius's by 2^-18, the f64 discriminant is negative by at least 2^-19 r^2, a normal f32 for the
+    // radii taken, so no lane of `lanes` is real.
+    let above = radius * radius * Vec4::splat(1.0 + CLEAR_MARGIN);
+    let clear = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).cmpgt(above);
+    // Likewise outside the sphere by that margin (with a square below f32's largest, so that `c`
+    // below is finite) and moving away: `leaving`.
+    let f2 = fx * fx + fy * fy + fz * fz;
+    let away = f2.cmpgt(above) & f2.cmplt(Vec4::splat(f32::MAX / 2.0)) & half_b.cmpgt(Vec4::ZERO);
+    if (clear | away).bitmask() & lanes == lanes {
+        return LaneRoots { t: Vec4::ZERO, hit: 0, undecided: 0 };
+    }
     let r = radius.as_dvec4();
     let r2 = r * r;
     let c = (sq64([fx, fy, fz]) - r2).as_vec4();
     // From outside, moving away: a miss before the discriminant.
     let leaving = c.cmpgt(Vec4::ZERO) & half_b.cmpgt(Vec4::ZERO) & c.cmplt(Vec4::INFINITY);
-    let s = half_b / a;
-    let disc = a * (r2 - sq64([fx - dx * s, fy - dy * s, fz - dz * s])).as_vec4();
+    let disc = a * (r2 - sq64(p)).as_vec4();
     // Not NaN and not negative.
     let real = disc.cmpge(Vec4::ZERO);
     let wide = disc.cmpeq(Vec4::INFINITY) | c.abs().cmpeq(Vec4::INFINITY);
@@ -196,6 +219,10 @@ fn roots(
     let undecided = considered & wide.bitmask();
     LaneRoots { t, hit: considered & !undecided & (first | second).bitmask(), undecided }
 }
+
+/// How far above the squared radius the f32 square of a ray's distance from a sphere's centre lies
+/// where [`roots`] takes the ray to pass clear of it.
+const CLEAR_MARGIN: f32 = 1.0 / (1 << 18) as f32;
 
 /// `|v|^2` of each lane in f64 (each square exact), summed as the one-ray routine sums it.
 #[inline(always)]
@@ -325,6 +352,52 @@ mod tests {
                 }
                 if occluding.undecided & (1 << l) == 0 {
                     prop_assert_eq!(occluding.hit & (1 << l) != 0, sphere.occluded_canonical(&ray, max), "sphere {}", l);
+                }
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+        /// Where a ray passes all four spheres within a few ulps of their surfaces (grazing each, or
+        /// starting on each and moving away), each lane is still that sphere's own answer: the test
+        /// that takes every lane to pass clear of its sphere says so only where the ray does.
+        #[test]
+        fn rays_grazing_every_sphere_answer_as_each_alone(
+            scale in arb_scale(),
+            (o, d) in (arb_v(8.0), arb_v(1.0)),
+            spheres in prop::collection::vec((0.05f32..3.0, -3.0f32..6.0, arb_v(1.0), -64i32..64, any::<bool>()), 4),
+        ) {
+            let Some((ray, _)) = Ray::new(o * scale, d).canonical() else { return Ok(()) };
+            let ulp = 1.0 / (1 << 22) as f32;
+            let spheres: Vec<Sphere> = spheres
+                .iter()
+                .filter_map(|&(radius, t, side, k, starts_on)| {
+                    let radius = radius * scale;
+                    let off = (1.0 + k as f32 * ulp) * radius;
+                    let center = if starts_on {
+                        // The ray starts `off` from the centre, on the side its direction leaves by.
+                        ray.origin - (ray.dir + side * 0.5).try_normalize()? * off
+                    } else {
+                        // The ray passes `off` from the centre at distance `t * radius` along it.
+                        let across = ray.dir.cross(side).try_normalize()?;
+                        ray.at(t * radius / ray.dir.length()) + across * off
+                    };
+                    Some(Sphere { center, radius })
+                })
+                .collect();
+            prop_assume!(!spheres.is_empty());
+            let lanes = SphereLanes::new(&spheres);
+            for max in [f32::INFINITY, 2.0 * scale] {
+                let roots = spheres_roots(&lanes, &ray, 0.0, max);
+                for (l, sphere) in spheres.iter().enumerate() {
+                    let range = Interval::new(0.0, max);
+                    if roots.undecided & (1 << l) == 0 {
+                        let got = (roots.hit & (1 << l) != 0)
+                            .then(|| sphere.hit_at_root(&ray, roots.t.to_array()[l], range))
+                            .flatten();
+                        prop_assert_eq!(bits(got), bits(sphere.intersect_canonical(&ray, range)), "sphere {}", l);
+                    }
                 }
             }
         }
