@@ -121,6 +121,19 @@ impl<const SOFT: u8> Whitted<SOFT> {
         self.shade(world, ray, found, depth, sample, stats)
     }
 
+    /// [`Whitted::shade`] as a call of its own, for the recursion.
+    fn shade_found<A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        ray: &Ray,
+        found: Option<PrimitiveHit>,
+        depth: u32,
+        sample: &mut S,
+        stats: &mut RayStats,
+    ) -> Vec3 {
+        self.shade(world, ray, found, depth, sample, stats)
+    }
+
     /// The colour along `ray` whose closest hit is `found`.
     #[inline(always)]
     fn shade<A: Accelerator, M: Material, S: SampleSource>(
@@ -184,14 +197,21 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 };
                 stats.reflection += 1;
                 let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
-                color += kr * self.trace(world, &r, 0.0, depth + 1, sample, stats);
-                if kr < 1.0 {
-                    if let Some(dir) = refracted {
+                match refracted.filter(|_| kr < 1.0) {
+                    Some(dir) => {
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
-                        color += (1.0 - kr) * d.transmittance * self.trace(world, &t, 0.0, depth + 1, sample, stats);
+                        // Both rays' closest hits before either is shaded: the two queries do not
+                        // wait on each other, and the processor overlaps them.
+                        let all = Interval::new(0.0, f32::INFINITY);
+                        let (found_r, found_t) = (world.accel.closest_hit(&r, all), world.accel.closest_hit(&t, all));
+                        color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
+                        color += (1.0 - kr)
+                            * d.transmittance
+                            * self.shade_found(world, &t, found_t, depth + 1, sample, stats);
                     }
+                    None => color += kr * self.trace(world, &r, 0.0, depth + 1, sample, stats),
                 }
             } else {
                 let mirror = material.mirror();
