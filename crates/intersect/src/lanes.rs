@@ -359,9 +359,9 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(20_000))]
-        /// Where a ray passes all four spheres within a few ulps of their surfaces (grazing each, or
-        /// starting on each and moving away), each lane is still that sphere's own answer: the test
-        /// that takes every lane to pass clear of its sphere says so only where the ray does.
+        /// Where a ray passes all four spheres within 2^-16 of their radii (grazing each, or starting
+        /// on each), each lane is still that sphere's own answer: the test that takes every lane to
+        /// pass clear of its sphere, or to leave it, says so only where the ray does.
         #[test]
         fn rays_grazing_every_sphere_answer_as_each_alone(
             scale in arb_scale(),
@@ -376,7 +376,7 @@ mod tests {
                     let radius = radius * scale;
                     let off = (1.0 + k as f32 * ulp) * radius;
                     let center = if starts_on {
-                        // The ray starts `off` from the centre, on the side its direction leaves by.
+                        // The ray starts `off` from the centre, mostly on the side its direction leaves by.
                         ray.origin - (ray.dir + side * 0.5).try_normalize()? * off
                     } else {
                         // The ray passes `off` from the centre at distance `t * radius` along it.
