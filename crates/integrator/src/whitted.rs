@@ -178,8 +178,18 @@ impl<const SOFT: u8> Whitted<SOFT> {
         let wo = -ray.dir;
 
         let mut color = Vec3::ZERO;
-        for (l, light) in world.lights.iter().enumerate() {
-            color += self.direct(world, light, above, n, ns, wo, material, ray.time, known(l), sample, stats);
+        // The light the lights give, added to `color` (the first term of its sum). A dielectric's
+        // reflected and refracted rays find their closest hits before the lights' shadow rays are
+        // traced: none of these queries waits on another, and the processor overlaps them.
+        macro_rules! add_direct {
+            () => {
+                for (l, light) in world.lights.iter().enumerate() {
+                    color += self.direct(world, light, above, n, ns, wo, material, ray.time, known(l), sample, stats);
+                }
+            };
+        }
+        if depth >= self.max_depth || material.dielectric().is_none() {
+            add_direct!();
         }
 
         if depth < self.max_depth {
@@ -202,16 +212,19 @@ impl<const SOFT: u8> Whitted<SOFT> {
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
-                        // Both rays' closest hits before either is shaded: the two queries do not
-                        // wait on each other, and the processor overlaps them.
                         let all = Interval::new(0.0, f32::INFINITY);
                         let (found_r, found_t) = (world.accel.closest_hit(&r, all), world.accel.closest_hit(&t, all));
+                        add_direct!();
                         color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
                         color += (1.0 - kr)
                             * d.transmittance
                             * self.shade_found(world, &t, found_t, depth + 1, sample, stats);
                     }
-                    None => color += kr * self.trace(world, &r, 0.0, depth + 1, sample, stats),
+                    None => {
+                        let found_r = world.accel.closest_hit(&r, Interval::new(0.0, f32::INFINITY));
+                        add_direct!();
+                        color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
+                    }
                 }
             } else {
                 let mirror = material.mirror();
