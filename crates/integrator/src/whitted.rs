@@ -178,9 +178,10 @@ impl<const SOFT: u8> Whitted<SOFT> {
         let wo = -ray.dir;
 
         let mut color = Vec3::ZERO;
-        // The light the lights give, added to `color` (the first term of its sum). A dielectric's
-        // reflected and refracted rays find their closest hits before the lights' shadow rays are
-        // traced: none of these queries waits on another, and the processor overlaps them.
+        // The light the lights give, added to `color`: the first term of its sum, and the first
+        // samples the surface draws. A dielectric's reflected and refracted rays find their closest
+        // hits (which draw none) before the lights' shadow rays are traced: none of these queries
+        // waits on another, and the processor overlaps them.
         macro_rules! add_direct {
             () => {
                 for (l, light) in world.lights.iter().enumerate() {
