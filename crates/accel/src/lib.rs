@@ -21,11 +21,13 @@ mod brute;
 mod bvh;
 mod factory;
 mod grid;
+mod interiors;
 
 pub use brute::BruteForce;
 pub use bvh::{Bvh, BvhBuild, BvhKernel};
 pub use factory::{AccelVisitor, with_accelerator};
 pub use grid::{Grid, GridParams};
+pub use interiors::ClearInteriors;
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Hit;
 

@@ -49,7 +49,7 @@ pub use render::{
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{BatchBuffers, SoftShadows, Whitted};
 
-use raylume_accel::Accelerator;
+use raylume_accel::{Accelerator, ClearInteriors};
 use raylume_geometry::{Ray, Vec3, Vec3A};
 use raylume_material::Material;
 pub use raylume_material::{Light, LightShape};
@@ -77,6 +77,9 @@ pub struct World<A, M> {
     pub vertex_normals: Vec<[Vec3A; 3]>,
     /// The point lights.
     pub lights: Vec<Light>,
+    /// The spheres no other primitive reaches into: rays refracted into one, or reflected inside
+    /// it, find their closest hit on it without the accelerator ([`ClearInteriors`]).
+    pub interiors: ClearInteriors,
     /// What escaping rays return.
     pub background: Background,
 }
@@ -91,7 +94,15 @@ impl<A: Accelerator, M: Material> World<A, M> {
         background: Background,
     ) -> Self {
         let shading = prim_material.into_iter().map(|material| Shading { material, normals: None }).collect();
-        Self { accel, materials, shading, vertex_normals: Vec::new(), lights, background }
+        Self {
+            accel,
+            materials,
+            shading,
+            vertex_normals: Vec::new(),
+            lights,
+            interiors: ClearInteriors::default(),
+            background,
+        }
     }
 }
 

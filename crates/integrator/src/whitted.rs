@@ -173,7 +173,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
-        let &Surface { hit, material, entering, n, ns, above } = surface;
+        let &Surface { hit, primitive, material, entering, n, ns, above } = surface;
         let material = &world.materials[material as usize];
         let wo = -ray.dir;
 
@@ -208,13 +208,20 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 };
                 stats.reflection += 1;
                 let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
+                let all = Interval::new(0.0, f32::INFINITY);
+                // The ray that goes (or stays) inside the solid: on a clear sphere, its hit is on it.
+                let closest_hit = |ray: &Ray, inside: bool| match inside {
+                    true => {
+                        world.interiors.closest_hit(ray, all, primitive).or_else(|| world.accel.closest_hit(ray, all))
+                    }
+                    false => world.accel.closest_hit(ray, all),
+                };
                 match refracted.filter(|_| kr < 1.0) {
                     Some(dir) => {
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
-                        let all = Interval::new(0.0, f32::INFINITY);
-                        let (found_r, found_t) = (world.accel.closest_hit(&r, all), world.accel.closest_hit(&t, all));
+                        let (found_r, found_t) = (closest_hit(&r, !entering), closest_hit(&t, entering));
                         add_direct!();
                         color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
                         color += (1.0 - kr)
@@ -222,7 +229,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                             * self.shade_found(world, &t, found_t, depth + 1, sample, stats);
                     }
                     None => {
-                        let found_r = world.accel.closest_hit(&r, Interval::new(0.0, f32::INFINITY));
+                        let found_r = closest_hit(&r, !entering);
                         add_direct!();
                         color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
                     }
@@ -251,6 +258,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
 #[derive(Clone, Copy, Debug)]
 struct Surface {
     hit: Hit,
+    /// Index of the primitive hit.
+    primitive: u32,
     /// Index into the world's materials.
     material: u32,
     /// Whether the ray meets the surface's outside.
@@ -286,7 +295,7 @@ fn surface<A: Accelerator, M: Material>(world: &World<A, M>, ray: &Ray, found: &
     };
     let hit = Hit { error: spawn_error(&hit, ray), ..hit };
     let above = offset_ray_origin(hit.point, hit.error, n);
-    Surface { hit, material: shading.material, entering, n, ns, above }
+    Surface { hit, primitive: found.primitive, material: shading.material, entering, n, ns, above }
 }
 
 /// The box around a hit's point that rays leaving it start past: the point's own error, and the

@@ -18,7 +18,7 @@ mod watertight;
 use glam::Vec4;
 pub use lanes::{LaneRoots, RayLanes, SphereLanes, sphere_roots, spheres_roots};
 pub use primitive::Primitive;
-use raylume_geometry::{Aabb, Interval, Ray, Sphere, Triangle, Vec2, Vec3A};
+use raylume_geometry::{Aabb, Interval, Plane, Ray, Sphere, Triangle, Vec2, Vec3A};
 pub use shapes::intersect_moller_trumbore;
 pub use watertight::{
     ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit, decided_distance, edge_error, has_unit_normal,
@@ -118,6 +118,12 @@ pub trait Intersect {
     /// ([`spheres_roots`]), which gives the same answers as [`Intersect::intersect_canonical`].
     #[inline]
     fn as_sphere(&self) -> Option<Sphere> {
+        None
+    }
+
+    /// The shape as an infinite plane, if it is one.
+    #[inline]
+    fn as_plane(&self) -> Option<Plane> {
         None
     }
 }

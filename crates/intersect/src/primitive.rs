@@ -89,6 +89,14 @@ impl Intersect for Primitive {
             _ => None,
         }
     }
+
+    #[inline]
+    fn as_plane(&self) -> Option<Plane> {
+        match self {
+            Primitive::Plane(p) => Some(*p),
+            _ => None,
+        }
+    }
 }
 
 impl Primitive {

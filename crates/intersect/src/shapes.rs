@@ -330,6 +330,11 @@ pub fn intersect_moller_trumbore(tri: &Triangle, ray: &Ray, t_range: Interval) -
 }
 
 impl Intersect for Plane {
+    #[inline]
+    fn as_plane(&self) -> Option<Plane> {
+        Some(*self)
+    }
+
     /// A ray parallel to the plane (or lying in it) never hits.
     #[inline]
     fn intersect(&self, ray: &Ray, t_range: Interval) -> Option<Hit> {

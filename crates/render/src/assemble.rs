@@ -1,7 +1,7 @@
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, AccelVisitor, Accelerator, with_accelerator};
+use raylume_accel::{AccelKind, AccelVisitor, Accelerator, ClearInteriors, with_accelerator};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
@@ -294,7 +294,9 @@ impl Steps for Scene {
         };
         let mut go_on = |_: &Progress| ControlFlow::Continue(());
         let on_pass: OnPass = progressive.unwrap_or(&mut go_on);
-        let parts = WorldParts { materials, shading, vertex_normals, lights, background };
+        let glass = |i: usize| materials[shading[i].material as usize].transmittance > 0.0;
+        let interiors = ClearInteriors::new(&primitives, glass, shutter);
+        let parts = WorldParts { materials, shading, vertex_normals, lights, interiors, background };
         let visitor = RenderWith { parts, build, job: &job, on_pass };
         let (rendered, build_seconds) = with_accelerator(kind, primitives, shutter, options.grid, visitor)?;
         let Rendered { accumulator, stats, seconds: render_seconds, samples_per_pass } = rendered;
@@ -343,6 +345,7 @@ struct WorldParts {
     shading: Vec<Shading>,
     vertex_normals: Vec<[Vec3A; 3]>,
     lights: Vec<Light>,
+    interiors: ClearInteriors,
     background: Background,
 }
 
@@ -359,8 +362,8 @@ impl AccelVisitor for RenderWith<'_, '_> {
     type Output = Result<(Rendered, f64), SceneError>;
 
     fn visit<A: Accelerator>(self, accel: A) -> Self::Output {
-        let WorldParts { materials, shading, vertex_normals, lights, background } = self.parts;
-        let world = World { accel, materials, shading, vertex_normals, lights, background };
+        let WorldParts { materials, shading, vertex_normals, lights, interiors, background } = self.parts;
+        let world = World { accel, materials, shading, vertex_normals, lights, interiors, background };
         let build_seconds = self.build.elapsed().as_secs_f64();
         Ok((self.job.with_camera(&world, self.on_pass)?, build_seconds))
     }

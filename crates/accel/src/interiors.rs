@@ -1,0 +1,196 @@
+//! Spheres whose inside no other primitive reaches: a ray that starts inside one (a ray refracted into
+//! a glass ball, or reflected inside it) meets that sphere before anything else.
+
+use raylume_geometry::{Aabb, Interval, Ray, Sphere, Triangle, Vec3A};
+use raylume_intersect::Intersect;
+
+use crate::PrimitiveHit;
+
+/// Most sphere-primitive pairs [`ClearInteriors::new`] examines; past it, no sphere is taken as clear.
+const MOST_PAIRS: usize = 1 << 20;
+
+/// How far every other primitive must stay from a clear sphere, relative to the scene's coordinates
+/// there: far more than the rounding of a point spawned inside the sphere, or of a hit on the other
+/// primitive, can move either.
+const CLEARANCE: f64 = 1.0 / 8192.0;
+
+/// The spheres, among a list of primitives, that no other primitive comes near: a ray that starts
+/// inside such a sphere (within the rounding of its surface) finds its closest hit on that sphere,
+/// by the sphere's own routine, and an accelerator over the whole list would report the same hit
+/// (every accelerator reports the closest hit, and no other primitive has a point inside the sphere).
+///
+/// ```
+/// use raylume_accel::{Accelerator, BruteForce, ClearInteriors};
+/// use raylume_geometry::{Interval, Ray, Sphere, Vec3A};
+/// use raylume_intersect::Primitive;
+/// let prims = vec![
+///     Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 }),
+///     Primitive::Sphere(Sphere { center: Vec3A::new(3.0, 0.0, 0.0), radius: 1.0 }),
+/// ];
+/// let clear = ClearInteriors::new(&prims, |_| true, Interval::new(0.0, 0.0));
+/// let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+/// let from_inside = clear.closest_hit(&ray, Interval::POSITIVE, 0).unwrap();
+/// assert_eq!(Some(from_inside), BruteForce::new(prims).closest_hit(&ray, Interval::POSITIVE));
+/// assert_eq!(from_inside.hit.t, 1.0);
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct ClearInteriors {
+    /// By primitive index: the sphere, if it is one and clear.
+    spheres: Vec<Option<Clear>>,
+}
+
+/// A clear sphere, and how far from its centre a ray may start to be taken as starting inside it.
+#[derive(Clone, Copy, Debug)]
+struct Clear {
+    sphere: Sphere,
+    /// The square of that distance: the radius and half the clearance.
+    reach2: f64,
+}
+
+impl ClearInteriors {
+    /// The clear spheres of `prims` among those `wanted` picks (by index), moving primitives taken
+    /// over `shutter`. Examines every pair of a wanted sphere and another primitive, unless there are
+    /// more than a million pairs: then none is taken as clear.
+    pub fn new<P: Intersect>(prims: &[P], wanted: impl Fn(usize) -> bool, shutter: Interval) -> Self {
+        let candidates: Vec<usize> =
+            (0..prims.len()).filter(|&i| wanted(i) && prims[i].as_sphere().is_some_and(|s| s.radius > 0.0)).collect();
+        if candidates.is_empty() || candidates.len().saturating_mul(prims.len()) > MOST_PAIRS {
+            return Self::default();
+        }
+        let mut spheres = vec![None; prims.len()];
+        for i in candidates {
+            let Some(sphere) = prims[i].as_sphere() else { continue };
+            let clear = prims.iter().enumerate().all(|(j, other)| j == i || apart(&sphere, other, shutter));
+            let reach = sphere.radius as f64 + 0.5 * CLEARANCE * scale(&sphere);
+            spheres[i] = clear.then_some(Clear { sphere, reach2: reach * reach });
+        }
+        Self { spheres }
+    }
+
+    /// The closest hit within `t_range` of `ray`, which starts inside primitive `inside` (a spawned
+    /// ray, within the rounding of its surface), if that primitive is a clear sphere, the ray starts
+    /// within half the clearance of it, and meets it: the answer of an accelerator over the whole
+    /// list. `None` where the accelerator must be asked.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray, t_range: Interval, inside: u32) -> Option<PrimitiveHit> {
+        let Clear { sphere, reach2 } = self.spheres.get(inside as usize)?.as_ref()?;
+        let from = sub(v64(ray.origin), v64(sphere.center));
+        // A NaN origin is not inside either.
+        let starts_inside = dot(from, from) <= *reach2;
+        if !starts_inside {
+            return None;
+        }
+        crate::closest_on_canonical(ray, t_range, |ray, t_range| {
+            sphere.intersect_canonical(ray, t_range).map(|hit| PrimitiveHit { hit, primitive: inside })
+        })
+    }
+
+    /// Whether any sphere is clear.
+    pub fn is_empty(&self) -> bool {
+        self.spheres.iter().all(Option::is_none)
+    }
+}
+
+/// The size the clearance of `sphere` is relative to: its radius or its centre's largest coordinate.
+fn scale(sphere: &Sphere) -> f64 {
+    v64(sphere.center).iter().fold(sphere.radius as f64, |m, x| m.max(x.abs()))
+}
+
+/// Whether `other` stays farther than the clearance from `sphere`'s surface on the outside.
+fn apart<P: Intersect>(sphere: &Sphere, other: &P, shutter: Interval) -> bool {
+    let c = v64(sphere.center);
+    let r = sphere.radius as f64;
+    let bounds = other.bounds_over(shutter);
+    let scale = scale(sphere);
+    let far = |distance: f64, extent: f64| distance > r + CLEARANCE * scale.max(extent);
+    if let Some(plane) = other.as_plane() {
+        let (p, n) = (v64(plane.point), v64(plane.normal));
+        let d = dot(sub(c, p), n).abs() / dot(n, n).sqrt();
+        return far(d, p.iter().fold(0.0, |m: f64, x| m.max(x.abs())));
+    }
+    if bounds.is_empty() {
+        // Nothing can be hit.
+        return true;
+    }
+    if !bounds.is_finite() {
+        return false;
+    }
+    let extent = [bounds.min, bounds.max].iter().fold(0.0f64, |m, v| m.max(v.abs().max_element() as f64));
+    if far(box_distance(c, &bounds), extent) {
+        return true;
+    }
+    if let Some(s) = other.as_sphere() {
+        return far(norm(sub(c, v64(s.center))) - s.radius as f64, extent);
+    }
+    if let Some(t) = other.as_triangle() {
+        return far(triangle_distance(c, &t), extent);
+    }
+    false
+}
+
+fn v64(v: Vec3A) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// The distance from `p` to the box `b` (zero inside).
+fn box_distance(p: [f64; 3], b: &Aabb) -> f64 {
+    let (lo, hi) = (v64(b.min), v64(b.max));
+    let gap = |k: usize| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
+    norm([gap(0), gap(1), gap(2)])
+}
+
+/// The distance from `p` to the triangle `t` (its closest point by the regions of its vertices,
+/// edges and face, as in Ericson's *Real-Time Collision Detection*, 5.1.5).
+fn triangle_distance(p: [f64; 3], t: &Triangle) -> f64 {
+    let [a, b, c] = t.p.map(v64);
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return norm(ap);
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return norm(bp);
+    }
+    let along = |from: [f64; 3], dir: [f64; 3], s: f64| {
+        norm(sub(p, [from[0] + dir[0] * s, from[1] + dir[1] * s, from[2] + dir[2] * s]))
+    };
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return along(a, ab, d1 / (d1 - d3));
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return norm(cp);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return along(a, ac, d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return along(b, sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom.is_nan() || denom <= 0.0 {
+        // A degenerate triangle: taken as reaching the sphere.
+        return 0.0;
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    let q = [a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w];
+    norm(sub(p, q))
+}
