@@ -1,12 +1,13 @@
-//! Spheres whose inside no other primitive reaches: a ray that starts inside one (a ray refracted into
-//! a glass ball, or reflected inside it) meets that sphere before anything else.
+//! The insides of glass spheres: a ray that starts inside one (refracted into a glass ball, reflected
+//! inside it, or a shadow ray from its inner surface) meets that sphere on its way out, and, where no
+//! other primitive reaches into the sphere, before anything else.
 
 use raylume_geometry::{Aabb, Interval, Ray, Sphere, Triangle, Vec3A};
 use raylume_intersect::Intersect;
 
 use crate::PrimitiveHit;
 
-/// Most sphere-primitive pairs [`ClearInteriors::new`] examines; past it, no sphere is taken as clear.
+/// Most sphere-primitive pairs [`Interiors::new`] examines; past it, no sphere is taken as clear.
 const MOST_PAIRS: usize = 1 << 20;
 
 /// How far every other primitive must stay from a clear sphere, relative to the scene's coordinates
@@ -14,55 +15,65 @@ const MOST_PAIRS: usize = 1 << 20;
 /// primitive, can move either.
 const CLEARANCE: f64 = 1.0 / 8192.0;
 
-/// The spheres, among a list of primitives, that no other primitive comes near: a ray that starts
-/// inside such a sphere (within the rounding of its surface) finds its closest hit on that sphere,
-/// by the sphere's own routine, and an accelerator over the whole list would report the same hit
-/// (every accelerator reports the closest hit, and no other primitive has a point inside the sphere).
+/// The spheres of a list of primitives that rays start inside (glass balls), by the sphere's own
+/// routine on the canonical ray, as every accelerator runs it:
+///
+/// - [`Interiors::closest_hit`]: where no other primitive comes near the sphere (it is *clear*), a
+///   ray that starts inside it (within the rounding of its surface) finds its closest hit on it, and
+///   an accelerator over the whole list reports the same hit (no other primitive has a point inside);
+/// - [`Interiors::occluded`]: a shadow ray from inside meets the sphere on its way out, and any-hit
+///   queries are answered by any primitive met, so the accelerator's answer is the same: occluded.
 ///
 /// ```
-/// use raylume_accel::{Accelerator, BruteForce, ClearInteriors};
+/// use raylume_accel::{Accelerator, BruteForce, Interiors};
 /// use raylume_geometry::{Interval, Ray, Sphere, Vec3A};
 /// use raylume_intersect::Primitive;
 /// let prims = vec![
 ///     Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 }),
 ///     Primitive::Sphere(Sphere { center: Vec3A::new(3.0, 0.0, 0.0), radius: 1.0 }),
 /// ];
-/// let clear = ClearInteriors::new(&prims, |_| true, Interval::new(0.0, 0.0));
+/// let interiors = Interiors::new(&prims, |_| true, Interval::new(0.0, 0.0));
+/// let list = BruteForce::new(prims);
 /// let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
-/// let from_inside = clear.closest_hit(&ray, Interval::POSITIVE, 0).unwrap();
-/// assert_eq!(Some(from_inside), BruteForce::new(prims).closest_hit(&ray, Interval::POSITIVE));
+/// let from_inside = interiors.closest_hit(&ray, Interval::POSITIVE, 0).unwrap();
+/// assert_eq!(Some(from_inside), list.closest_hit(&ray, Interval::POSITIVE));
 /// assert_eq!(from_inside.hit.t, 1.0);
+/// // Towards a light beyond the second ball: occluded on the way out of the first.
+/// assert!(interiors.occluded(&ray, 10.0, 0) && list.occluded(&ray, 10.0));
 /// ```
 #[derive(Clone, Debug, Default)]
-pub struct ClearInteriors {
-    /// By primitive index: the sphere, if it is one and clear.
-    spheres: Vec<Option<Clear>>,
+pub struct Interiors {
+    /// By primitive index: the sphere, if it is one that was asked for.
+    spheres: Vec<Option<Inside>>,
 }
 
-/// A clear sphere, and how far from its centre a ray may start to be taken as starting inside it.
+/// A sphere rays start inside, and, if it is clear, how far from its centre a ray may start to be
+/// taken as starting inside it.
 #[derive(Clone, Copy, Debug)]
-struct Clear {
+struct Inside {
     sphere: Sphere,
-    /// The square of that distance: the radius and half the clearance.
+    /// The square of that distance (the radius and half the clearance); negative where the sphere is
+    /// not clear.
     reach2: f64,
 }
 
-impl ClearInteriors {
-    /// The clear spheres of `prims` among those `wanted` picks (by index), moving primitives taken
-    /// over `shutter`. Examines every pair of a wanted sphere and another primitive, unless there are
-    /// more than a million pairs: then none is taken as clear.
+impl Interiors {
+    /// The spheres of `prims` among those `wanted` picks (by index), and which of them are clear,
+    /// moving primitives taken over `shutter`. Examines every pair of a wanted sphere and another
+    /// primitive, unless there are more than a million pairs: then none is taken as clear.
     pub fn new<P: Intersect>(prims: &[P], wanted: impl Fn(usize) -> bool, shutter: Interval) -> Self {
         let candidates: Vec<usize> =
             (0..prims.len()).filter(|&i| wanted(i) && prims[i].as_sphere().is_some_and(|s| s.radius > 0.0)).collect();
-        if candidates.is_empty() || candidates.len().saturating_mul(prims.len()) > MOST_PAIRS {
+        if candidates.is_empty() {
             return Self::default();
         }
+        let examine = candidates.len().saturating_mul(prims.len()) <= MOST_PAIRS;
         let mut spheres = vec![None; prims.len()];
         for i in candidates {
             let Some(sphere) = prims[i].as_sphere() else { continue };
-            let clear = prims.iter().enumerate().all(|(j, other)| j == i || apart(&sphere, other, shutter));
+            let clear = examine && prims.iter().enumerate().all(|(j, other)| j == i || apart(&sphere, other, shutter));
             let reach = sphere.radius as f64 + 0.5 * CLEARANCE * scale(&sphere);
-            spheres[i] = clear.then_some(Clear { sphere, reach2: reach * reach });
+            spheres[i] = Some(Inside { sphere, reach2: if clear { reach * reach } else { -1.0 } });
         }
         Self { spheres }
     }
@@ -73,7 +84,7 @@ impl ClearInteriors {
     /// list. `None` where the accelerator must be asked.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, t_range: Interval, inside: u32) -> Option<PrimitiveHit> {
-        let Clear { sphere, reach2 } = self.spheres.get(inside as usize)?.as_ref()?;
+        let Inside { sphere, reach2 } = self.spheres.get(inside as usize)?.as_ref()?;
         let from = sub(v64(ray.origin), v64(sphere.center));
         // A NaN origin is not inside either.
         let starts_inside = dot(from, from) <= *reach2;
@@ -85,9 +96,18 @@ impl ClearInteriors {
         })
     }
 
+    /// Whether `ray` (a shadow ray from inside primitive `inside`) meets that primitive within
+    /// `(0, t_max)`, if it is one of the spheres: then every accelerator answers that it is occluded.
+    /// `false` says nothing of the other primitives.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray, t_max: f32, inside: u32) -> bool {
+        let Some(Some(Inside { sphere, .. })) = self.spheres.get(inside as usize) else { return false };
+        crate::occluded_on_canonical(ray, t_max, |ray, t_max| sphere.occluded_canonical(ray, t_max))
+    }
+
     /// Whether any sphere is clear.
-    pub fn is_empty(&self) -> bool {
-        self.spheres.iter().all(Option::is_none)
+    pub fn any_clear(&self) -> bool {
+        self.spheres.iter().flatten().any(|s| s.reach2 >= 0.0)
     }
 }
 

@@ -27,7 +27,7 @@ pub use brute::BruteForce;
 pub use bvh::{Bvh, BvhBuild, BvhKernel};
 pub use factory::{AccelVisitor, with_accelerator};
 pub use grid::{Grid, GridParams};
-pub use interiors::ClearInteriors;
+pub use interiors::Interiors;
 use raylume_geometry::{Aabb, Interval, Ray};
 use raylume_intersect::Hit;
 

@@ -1,10 +1,11 @@
 //! A ray that starts inside a clear sphere finds, without the accelerator, the hit every accelerator
-//! finds: rays spawned inside spheres as the integrator spawns them (refracted in, reflected inside),
-//! on scenes where other shapes pass near the spheres, cut into them, or sit inside them, at small and
+//! finds, and a shadow ray from inside any of the spheres is occluded where every accelerator says so:
+//! rays spawned inside spheres as the integrator spawns them (refracted in, reflected inside), on
+//! scenes where other shapes pass near the spheres, cut into them, or sit inside them, at small and
 //! large scales.
 
 use proptest::prelude::*;
-use raylume_accel::{Accelerator, BruteForce, Bvh, ClearInteriors, PrimitiveHit};
+use raylume_accel::{Accelerator, BruteForce, Bvh, Interiors, PrimitiveHit};
 use raylume_geometry::{Interval, Plane, Ray, Sphere, Triangle, Vec3A, gamma, offset_ray_origin};
 use raylume_intersect::Primitive;
 
@@ -25,7 +26,7 @@ fn spawned_inside(ray: &Ray, hit: &PrimitiveHit, dir: Vec3A) -> Ray {
 /// the clear interiors answer, they answer as the brute-force list and the BVH do. Returns how many
 /// they answered.
 fn check(prims: &[Primitive], eye: Vec3A, targets: &[Vec3A], turns: &[Vec3A]) -> usize {
-    let clear = ClearInteriors::new(prims, |_| true, STILL);
+    let clear = Interiors::new(prims, |_| true, STILL);
     let list = BruteForce::new(prims.to_vec());
     let bvh = Bvh::new(prims.to_vec(), STILL);
     let mut answered = 0;
@@ -49,6 +50,20 @@ fn check(prims: &[Primitive], eye: Vec3A, targets: &[Vec3A], turns: &[Vec3A]) ->
             if let Some(found) = clear.closest_hit(&r, Interval::POSITIVE, first.primitive) {
                 assert_eq!(Some(found), expected, "ray {r:?} inside primitive {}", first.primitive);
                 answered += 1;
+            }
+            // Shadow rays from inside: towards the eye, and along the ray to lights short of where it
+            // leaves the sphere, about there, and beyond.
+            let to_eye = eye - r.origin;
+            let exit = expected.map_or(1.0, |h| h.hit.t);
+            let shadows = [(Ray::new(r.origin, to_eye.normalize()), to_eye.length())]
+                .into_iter()
+                .chain([0.5, 0.999, 1.001, 2.0].map(|f| (r, exit * f)));
+            for (shadow, t_max) in shadows {
+                let occluded = list.occluded(&shadow, t_max);
+                assert_eq!(bvh.occluded(&shadow, t_max), occluded);
+                if clear.occluded(&shadow, t_max, first.primitive) {
+                    assert!(occluded, "{shadow:?} to {t_max}");
+                }
             }
         }
     }
@@ -99,7 +114,7 @@ fn only_spheres_nothing_reaches_are_clear() {
         Primitive::Triangle(Triangle::new(Vec3A::new(-5.0, -5.0, z), Vec3A::new(5.0, -5.0, z), Vec3A::new(0.0, 5.0, z)))
     };
     let answered = |prims: &[Primitive]| {
-        let clear = ClearInteriors::new(prims, |_| true, STILL);
+        let clear = Interiors::new(prims, |_| true, STILL);
         clear.closest_hit(&Ray::new(Vec3A::ZERO, Vec3A::X), Interval::POSITIVE, 0).is_some()
     };
     assert!(answered(&[ball(0.0, 1.0), ball(2.1, 1.0)]), "a neighbour 0.1 away");
@@ -115,24 +130,30 @@ fn only_spheres_nothing_reaches_are_clear() {
     let far_plane = Primitive::Plane(Plane { point: Vec3A::new(0.0, 0.0, 1.1), normal: Vec3A::Z });
     assert!(answered(&[ball(0.0, 1.0), far_plane]), "a plane 0.1 away");
     // Only the spheres asked for are examined.
-    let none = ClearInteriors::new(&[ball(0.0, 1.0)], |_| false, STILL);
-    assert!(none.is_empty());
+    let none = Interiors::new(&[ball(0.0, 1.0)], |_| false, STILL);
+    assert!(!none.any_clear());
 }
 
 /// A ray that starts outside a clear sphere (not a spawned one) is left to the accelerator: a shape
-/// between it and the sphere would be hit first.
+/// between it and the sphere would be hit first. A shadow ray that does not meet the sphere is left
+/// to the accelerator too.
 #[test]
 fn rays_starting_outside_are_left_to_the_accelerator() {
     let prims = [
         Primitive::Sphere(Sphere { center: Vec3A::ZERO, radius: 1.0 }),
         Primitive::Sphere(Sphere { center: Vec3A::new(-3.0, 0.0, 0.0), radius: 0.5 }),
     ];
-    let clear = ClearInteriors::new(&prims, |_| true, STILL);
+    let clear = Interiors::new(&prims, |_| true, STILL);
     let from_outside = Ray::new(Vec3A::new(-5.0, 0.0, 0.0), Vec3A::X);
     assert_eq!(clear.closest_hit(&from_outside, Interval::POSITIVE, 0), None);
     assert_eq!(BruteForce::new(prims.to_vec()).closest_hit(&from_outside, Interval::POSITIVE).unwrap().primitive, 1);
     let from_inside = Ray::new(Vec3A::new(0.5, 0.0, 0.0), -Vec3A::X);
     assert_eq!(clear.closest_hit(&from_inside, Interval::POSITIVE, 0).unwrap().hit.t, 1.5);
+    assert!(clear.occluded(&from_inside, 1.6, 0));
+    assert!(!clear.occluded(&from_inside, 1.4, 0), "the light inside the sphere");
+    assert!(clear.occluded(&from_outside, 10.0, 1), "the second sphere, met from outside");
+    let first_only = Interiors::new(&prims, |i| i == 0, STILL);
+    assert!(!first_only.occluded(&from_outside, 10.0, 1), "not a sphere asked for");
 }
 
 /// On seeded clusters like the course's glass balls (four spheres nearly touching above a terrain of

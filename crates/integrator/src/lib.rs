@@ -49,7 +49,7 @@ pub use render::{
 pub use sampler::{Centre, Independent, Jittered, SampleSource, Sampler, Sobol};
 pub use whitted::{BatchBuffers, SoftShadows, Whitted};
 
-use raylume_accel::{Accelerator, ClearInteriors};
+use raylume_accel::{Accelerator, Interiors};
 use raylume_geometry::{Ray, Vec3, Vec3A};
 use raylume_material::Material;
 pub use raylume_material::{Light, LightShape};
@@ -77,9 +77,10 @@ pub struct World<A, M> {
     pub vertex_normals: Vec<[Vec3A; 3]>,
     /// The point lights.
     pub lights: Vec<Light>,
-    /// The spheres no other primitive reaches into: rays refracted into one, or reflected inside
-    /// it, find their closest hit on it without the accelerator ([`ClearInteriors`]).
-    pub interiors: ClearInteriors,
+    /// The glass spheres ([`Interiors`]): rays refracted into one that no other primitive reaches
+    /// into, or reflected inside it, find their closest hit on it without the accelerator, and shadow
+    /// rays from inside any of them test it first. Empty: every ray asks the accelerator.
+    pub interiors: Interiors,
     /// What escaping rays return.
     pub background: Background,
 }
@@ -100,7 +101,7 @@ impl<A: Accelerator, M: Material> World<A, M> {
             shading,
             vertex_normals: Vec::new(),
             lights,
-            interiors: ClearInteriors::default(),
+            interiors: Interiors::default(),
             background,
         }
     }

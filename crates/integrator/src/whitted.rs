@@ -52,15 +52,17 @@ impl<const SOFT: u8> Whitted<SOFT> {
         }
     }
 
-    /// The light arriving from `light` at `above` (a point offset off the surface). `known` is what
-    /// a batch has found already for a point light, or for an area light sampled once per sample (its
-    /// point drawn by the batch): the direction to it if it lights the point, else zero.
+    /// The light arriving from `light` at `above` (a point offset off the surface; inside the glass
+    /// primitive `inside`, if it is one). `known` is what a batch has found already for a point light,
+    /// or for an area light sampled once per sample (its point drawn by the batch): the direction to it
+    /// if it lights the point, else zero.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn direct<A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
         light: &Light,
+        inside: Option<u32>,
         above: Vec3A,
         n: Vec3A,
         ns: Vec3A,
@@ -74,7 +76,9 @@ impl<const SOFT: u8> Whitted<SOFT> {
         let unoccluded = |target: Vec3A, stats: &mut RayStats| -> Option<Vec3A> {
             let (ray, dist) = shadow_ray(above, n, target, time)?;
             stats.shadow += 1;
-            (!world.accel.occluded(&ray, dist)).then_some(ray.dir)
+            let occluded =
+                inside.is_some_and(|p| world.interiors.occluded(&ray, dist, p)) || world.accel.occluded(&ray, dist);
+            (!occluded).then_some(ray.dir)
         };
         let point = SOFT == SoftShadows::NONE || !light.is_area();
         if point || (SOFT == SoftShadows::STRATIFIED && known.is_some()) {
@@ -178,6 +182,8 @@ impl<const SOFT: u8> Whitted<SOFT> {
         let wo = -ray.dir;
 
         let mut color = Vec3::ZERO;
+        // Inside a glass solid, shadow rays meet its surface on their way out.
+        let inside = (!entering && material.dielectric().is_some()).then_some(primitive);
         // The light the lights give, added to `color`: the first term of its sum, and the first
         // samples the surface draws. A dielectric's reflected and refracted rays find their closest
         // hits (which draw none) before the lights' shadow rays are traced: none of these queries
@@ -185,7 +191,20 @@ impl<const SOFT: u8> Whitted<SOFT> {
         macro_rules! add_direct {
             () => {
                 for (l, light) in world.lights.iter().enumerate() {
-                    color += self.direct(world, light, above, n, ns, wo, material, ray.time, known(l), sample, stats);
+                    color += self.direct(
+                        world,
+                        light,
+                        inside,
+                        above,
+                        n,
+                        ns,
+                        wo,
+                        material,
+                        ray.time,
+                        known(l),
+                        sample,
+                        stats,
+                    );
                 }
             };
         }

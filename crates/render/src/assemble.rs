@@ -1,7 +1,7 @@
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use raylume_accel::{AccelKind, AccelVisitor, Accelerator, ClearInteriors, with_accelerator};
+use raylume_accel::{AccelKind, AccelVisitor, Accelerator, Interiors, with_accelerator};
 use raylume_camera::{Camera, MotionBlur, Pinhole, ThinLens};
 use raylume_geometry::{AaBox, Aabb, Cone, Interval, MovingSphere, Plane, Sphere, Triangle, Vec3A};
 use raylume_integrator::{
@@ -295,7 +295,7 @@ impl Steps for Scene {
         let mut go_on = |_: &Progress| ControlFlow::Continue(());
         let on_pass: OnPass = progressive.unwrap_or(&mut go_on);
         let glass = |i: usize| materials[shading[i].material as usize].transmittance > 0.0;
-        let interiors = ClearInteriors::new(&primitives, glass, shutter);
+        let interiors = Interiors::new(&primitives, glass, shutter);
         let parts = WorldParts { materials, shading, vertex_normals, lights, interiors, background };
         let visitor = RenderWith { parts, build, job: &job, on_pass };
         let (rendered, build_seconds) = with_accelerator(kind, primitives, shutter, options.grid, visitor)?;
@@ -345,7 +345,7 @@ struct WorldParts {
     shading: Vec<Shading>,
     vertex_normals: Vec<[Vec3A; 3]>,
     lights: Vec<Light>,
-    interiors: ClearInteriors,
+    interiors: Interiors,
     background: Background,
 }
 
