@@ -43,8 +43,8 @@ const CLEARANCE: f64 = 1.0 / 8192.0;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Interiors {
-    /// By primitive index: the sphere, if it is one that was asked for.
-    spheres: Vec<Option<Inside>>,
+    /// The spheres asked for, by primitive index, in increasing order.
+    spheres: Vec<(u32, Inside)>,
 }
 
 /// A sphere rays start inside, and, if it is clear, how far from its centre a ray may start to be
@@ -68,12 +68,12 @@ impl Interiors {
             return Self::default();
         }
         let examine = candidates.len().saturating_mul(prims.len()) <= MOST_PAIRS;
-        let mut spheres = vec![None; prims.len()];
+        let mut spheres = Vec::with_capacity(candidates.len());
         for i in candidates {
             let Some(sphere) = prims[i].as_sphere() else { continue };
             let clear = examine && prims.iter().enumerate().all(|(j, other)| j == i || apart(&sphere, other, shutter));
             let reach = sphere.radius as f64 + 0.5 * CLEARANCE * scale(&sphere);
-            spheres[i] = Some(Inside { sphere, reach2: if clear { reach * reach } else { -1.0 } });
+            spheres.push((i as u32, Inside { sphere, reach2: if clear { reach * reach } else { -1.0 } }));
         }
         Self { spheres }
     }
@@ -84,7 +84,7 @@ impl Interiors {
     /// list. `None` where the accelerator must be asked.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, t_range: Interval, inside: u32) -> Option<PrimitiveHit> {
-        let Inside { sphere, reach2 } = self.spheres.get(inside as usize)?.as_ref()?;
+        let Inside { sphere, reach2 } = self.sphere(inside)?;
         let from = sub(v64(ray.origin), v64(sphere.center));
         // A NaN origin is not inside either.
         let starts_inside = dot(from, from) <= *reach2;
@@ -101,13 +101,23 @@ impl Interiors {
     /// `false` says nothing of the other primitives.
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32, inside: u32) -> bool {
-        let Some(Some(Inside { sphere, .. })) = self.spheres.get(inside as usize) else { return false };
+        let Some(Inside { sphere, .. }) = self.sphere(inside) else { return false };
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| sphere.occluded_canonical(ray, t_max))
     }
 
     /// Whether any sphere is clear.
     pub fn any_clear(&self) -> bool {
-        self.spheres.iter().flatten().any(|s| s.reach2 >= 0.0)
+        self.spheres.iter().any(|(_, s)| s.reach2 >= 0.0)
+    }
+
+    /// The sphere of primitive `index`, if it was asked for.
+    #[inline(always)]
+    fn sphere(&self, index: u32) -> Option<&Inside> {
+        match self.spheres.as_slice() {
+            [] => None,
+            [(i, s)] => (*i == index).then_some(s),
+            spheres => spheres.binary_search_by_key(&index, |(i, _)| *i).ok().map(|k| &spheres[k].1),
+        }
     }
 }
 
@@ -120,14 +130,25 @@ fn scale(sphere: &Sphere) -> f64 {
 fn apart<P: Intersect>(sphere: &Sphere, other: &P, shutter: Interval) -> bool {
     let c = v64(sphere.center);
     let r = sphere.radius as f64;
-    let bounds = other.bounds_over(shutter);
     let scale = scale(sphere);
     let far = |distance: f64, extent: f64| distance > r + CLEARANCE * scale.max(extent);
+    // A gap along one axis between the box and the centre: the box's distance is no smaller.
+    let gap = |b: &Aabb, extent: f64| {
+        let (lo, hi) = (v64(b.min), v64(b.max));
+        (0..3).any(|k| far(lo[k] - c[k], extent) || far(c[k] - hi[k], extent))
+    };
+    if let Some(t) = other.as_triangle() {
+        // The vertices' box holds every point of the triangle.
+        let b = Aabb::new(t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2]));
+        let extent = b.min.abs().max(b.max.abs()).max_element() as f64;
+        return gap(&b, extent) || far(triangle_distance(c, &t), extent);
+    }
     if let Some(plane) = other.as_plane() {
         let (p, n) = (v64(plane.point), v64(plane.normal));
         let d = dot(sub(c, p), n).abs() / dot(n, n).sqrt();
         return far(d, p.iter().fold(0.0, |m: f64, x| m.max(x.abs())));
     }
+    let bounds = other.bounds_over(shutter);
     if bounds.is_empty() {
         // Nothing can be hit.
         return true;
@@ -135,15 +156,12 @@ fn apart<P: Intersect>(sphere: &Sphere, other: &P, shutter: Interval) -> bool {
     if !bounds.is_finite() {
         return false;
     }
-    let extent = [bounds.min, bounds.max].iter().fold(0.0f64, |m, v| m.max(v.abs().max_element() as f64));
-    if far(box_distance(c, &bounds), extent) {
+    let extent = bounds.min.abs().max(bounds.max.abs()).max_element() as f64;
+    if gap(&bounds, extent) || far(box_distance(c, &bounds), extent) {
         return true;
     }
     if let Some(s) = other.as_sphere() {
         return far(norm(sub(c, v64(s.center))) - s.radius as f64, extent);
-    }
-    if let Some(t) = other.as_triangle() {
-        return far(triangle_distance(c, &t), extent);
     }
     false
 }
