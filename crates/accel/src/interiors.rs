@@ -43,8 +43,10 @@ const CLEARANCE: f64 = 1.0 / 8192.0;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Interiors {
-    /// The spheres asked for, by primitive index, in increasing order.
-    spheres: Vec<(u32, Inside)>,
+    /// By primitive index, the place in `spheres` of the primitive's sphere if it was asked for, else
+    /// `u32::MAX`; empty if none was.
+    slots: Vec<u32>,
+    spheres: Vec<Inside>,
 }
 
 /// A sphere rays start inside, and, if it is clear, how far from its centre a ray may start to be
@@ -68,14 +70,16 @@ impl Interiors {
             return Self::default();
         }
         let examine = candidates.len().saturating_mul(prims.len()) <= MOST_PAIRS;
+        let mut slots = vec![u32::MAX; prims.len()];
         let mut spheres = Vec::with_capacity(candidates.len());
         for i in candidates {
             let Some(sphere) = prims[i].as_sphere() else { continue };
             let clear = examine && prims.iter().enumerate().all(|(j, other)| j == i || apart(&sphere, other, shutter));
             let reach = sphere.radius as f64 + 0.5 * CLEARANCE * scale(&sphere);
-            spheres.push((i as u32, Inside { sphere, reach2: if clear { reach * reach } else { -1.0 } }));
+            slots[i] = spheres.len() as u32;
+            spheres.push(Inside { sphere, reach2: if clear { reach * reach } else { -1.0 } });
         }
-        Self { spheres }
+        Self { slots, spheres }
     }
 
     /// The closest hit within `t_range` of `ray`, which starts inside primitive `inside` (a spawned
@@ -107,17 +111,13 @@ impl Interiors {
 
     /// Whether any sphere is clear.
     pub fn any_clear(&self) -> bool {
-        self.spheres.iter().any(|(_, s)| s.reach2 >= 0.0)
+        self.spheres.iter().any(|s| s.reach2 >= 0.0)
     }
 
     /// The sphere of primitive `index`, if it was asked for.
     #[inline(always)]
     fn sphere(&self, index: u32) -> Option<&Inside> {
-        match self.spheres.as_slice() {
-            [] => None,
-            [(i, s)] => (*i == index).then_some(s),
-            spheres => spheres.binary_search_by_key(&index, |(i, _)| *i).ok().map(|k| &spheres[k].1),
-        }
+        self.spheres.get(*self.slots.get(index as usize)? as usize)
     }
 }
 
