@@ -1,8 +1,8 @@
 //! The insides of glass spheres: a ray that starts inside one (refracted into a glass ball, reflected
-//! inside it, or a shadow ray from its inner surface) meets that sphere on its way out, and, where no
-//! other primitive reaches into the sphere, before anything else.
+//! inside it, or a shadow ray from its inner surface) meets that sphere on its way out, and before
+//! anything else but the few shapes that reach into the sphere.
 
-use raylume_geometry::{Aabb, Interval, Ray, Sphere, Triangle, Vec3A};
+use raylume_geometry::{Aabb, Interval, Plane, Ray, Sphere, Triangle, Vec3A};
 use raylume_intersect::Intersect;
 
 use crate::PrimitiveHit;
@@ -10,7 +10,10 @@ use crate::PrimitiveHit;
 /// Most sphere-primitive pairs [`Interiors::new`] examines; past it, no sphere is taken as clear.
 const MOST_PAIRS: usize = 1 << 20;
 
-/// How far every other primitive must stay from a clear sphere, relative to the scene's coordinates
+/// Most shapes that may reach into a sphere whose inside rays [`Interiors::closest_hit`] answers.
+const MOST_NEAR: usize = 8;
+
+/// How far every other primitive must stay from a sphere (or be one of its near shapes), relative to the scene's coordinates
 /// there: far more than the rounding of a point spawned inside the sphere, or of a hit on the other
 /// primitive, can move either.
 const CLEARANCE: f64 = 1.0 / 8192.0;
@@ -18,9 +21,10 @@ const CLEARANCE: f64 = 1.0 / 8192.0;
 /// The spheres of a list of primitives that rays start inside (glass balls), by the sphere's own
 /// routine on the canonical ray, as every accelerator runs it:
 ///
-/// - [`Interiors::closest_hit`]: where no other primitive comes near the sphere (it is *clear*), a
-///   ray that starts inside it (within the rounding of its surface) finds its closest hit on it, and
-///   an accelerator over the whole list reports the same hit (no other primitive has a point inside);
+/// - [`Interiors::closest_hit`]: where no other primitive comes near the sphere but a few spheres and
+///   planes (its *near* shapes), a ray that starts inside it (within the rounding of its surface)
+///   finds its closest hit on it or on one of those, and an accelerator over the whole list reports
+///   the same hit (no other primitive has a point inside);
 /// - [`Interiors::occluded`]: a shadow ray from inside meets the sphere on its way out, and any-hit
 ///   queries are answered by any primitive met, so the accelerator's answer is the same: occluded.
 ///
@@ -47,16 +51,28 @@ pub struct Interiors {
     /// `u32::MAX`; empty if none was.
     slots: Vec<u32>,
     spheres: Vec<Inside>,
+    /// The near shapes of each sphere, with their primitive indices.
+    near: Vec<(u32, Near)>,
 }
 
-/// A sphere rays start inside, and, if it is clear, how far from its centre a ray may start to be
-/// taken as starting inside it.
+/// A sphere rays start inside, and, if their hits are answered, how far from its centre a ray may
+/// start to be taken as starting inside it, and the shapes near it.
 #[derive(Clone, Copy, Debug)]
 struct Inside {
     sphere: Sphere,
-    /// The square of that distance (the radius and half the clearance); negative where the sphere is
-    /// not clear.
+    /// The square of that distance (the radius and half the clearance); negative where the sphere's
+    /// inside rays go to the accelerator.
     reach2: f64,
+    /// The sphere's near shapes: `near[first..first + count]`.
+    first: u32,
+    count: u32,
+}
+
+/// A shape that reaches into a sphere, tested by its own routine as every accelerator tests it.
+#[derive(Clone, Copy, Debug)]
+enum Near {
+    Sphere(Sphere),
+    Plane(Plane),
 }
 
 impl Interiors {
@@ -72,31 +88,66 @@ impl Interiors {
         let examine = candidates.len().saturating_mul(prims.len()) <= MOST_PAIRS;
         let mut slots = vec![u32::MAX; prims.len()];
         let mut spheres = Vec::with_capacity(candidates.len());
+        let mut near = Vec::new();
         for i in candidates {
             let Some(sphere) = prims[i].as_sphere() else { continue };
-            let clear = examine && prims.iter().enumerate().all(|(j, other)| j == i || apart(&sphere, other, shutter));
+            let first = near.len();
+            let mut answered = examine;
+            for (j, other) in prims.iter().enumerate() {
+                if !answered {
+                    break;
+                }
+                if j == i || apart(&sphere, other, shutter) {
+                    continue;
+                }
+                let shape = match (other.as_sphere(), other.as_plane()) {
+                    (Some(s), _) => Some(Near::Sphere(s)),
+                    (_, Some(p)) => Some(Near::Plane(p)),
+                    _ => None,
+                };
+                match shape {
+                    Some(shape) if near.len() - first < MOST_NEAR => near.push((j as u32, shape)),
+                    _ => answered = false,
+                }
+            }
+            if !answered {
+                near.truncate(first);
+            }
             let reach = sphere.radius as f64 + 0.5 * CLEARANCE * scale(&sphere);
             slots[i] = spheres.len() as u32;
-            spheres.push(Inside { sphere, reach2: if clear { reach * reach } else { -1.0 } });
+            let (first, count) = (first as u32, (near.len() - first) as u32);
+            spheres.push(Inside { sphere, reach2: if answered { reach * reach } else { -1.0 }, first, count });
         }
-        Self { slots, spheres }
+        Self { slots, spheres, near }
     }
 
     /// The closest hit within `t_range` of `ray`, which starts inside primitive `inside` (a spawned
-    /// ray, within the rounding of its surface), if that primitive is a clear sphere, the ray starts
-    /// within half the clearance of it, and meets it: the answer of an accelerator over the whole
-    /// list. `None` where the accelerator must be asked.
+    /// ray, within the rounding of its surface), if that primitive is a sphere whose inside rays are
+    /// answered, the ray starts within half the clearance of it, and meets it: the answer of an
+    /// accelerator over the whole list (the closest of the sphere's hit and its near shapes', the
+    /// lowest index on a tie). `None` where the accelerator must be asked.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, t_range: Interval, inside: u32) -> Option<PrimitiveHit> {
-        let Inside { sphere, reach2 } = self.sphere(inside)?;
+        let &Inside { sphere, reach2, first, count } = self.sphere(inside)?;
         let from = sub(v64(ray.origin), v64(sphere.center));
         // A NaN origin is not inside either.
-        let starts_inside = dot(from, from) <= *reach2;
+        let starts_inside = dot(from, from) <= reach2;
         if !starts_inside {
             return None;
         }
         crate::closest_on_canonical(ray, t_range, |ray, t_range| {
-            sphere.intersect_canonical(ray, t_range).map(|hit| PrimitiveHit { hit, primitive: inside })
+            let mut best = Some(PrimitiveHit { hit: sphere.intersect_canonical(ray, t_range)?, primitive: inside });
+            for &(primitive, shape) in &self.near[first as usize..(first + count) as usize] {
+                // Each shape's first hit in the whole range: within a smaller one, the same or none.
+                let hit = match shape {
+                    Near::Sphere(s) => s.intersect_canonical(ray, t_range),
+                    Near::Plane(p) => p.intersect_canonical(ray, t_range),
+                };
+                if let Some(hit) = hit {
+                    PrimitiveHit::keep_closer(&mut best, PrimitiveHit { hit, primitive });
+                }
+            }
+            best
         })
     }
 
@@ -109,8 +160,8 @@ impl Interiors {
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| sphere.occluded_canonical(ray, t_max))
     }
 
-    /// Whether any sphere is clear.
-    pub fn any_clear(&self) -> bool {
+    /// Whether the closest hits of rays inside any of the spheres are answered.
+    pub fn answers_any(&self) -> bool {
         self.spheres.iter().any(|s| s.reach2 >= 0.0)
     }
 

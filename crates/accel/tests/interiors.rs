@@ -89,7 +89,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
 
     #[test]
-    fn rays_from_inside_clear_spheres_hit_what_the_accelerators_hit(
+    fn rays_from_inside_spheres_hit_what_the_accelerators_hit(
         centres in prop::collection::vec((arb_point(2.0), 0.2f32..0.9), 1..8),
         cuts in prop::collection::vec((arb_point(2.5), arb_point(2.5), arb_point(2.5)), 0..4),
         scale in prop::sample::select(vec![1e-3f32, 1.0, 3e4]),
@@ -104,34 +104,48 @@ proptest! {
     }
 }
 
-/// Spheres apart from everything are answered; a sphere that another sphere overlaps or touches
-/// within the clearance, that a triangle cuts or passes within it, that holds another shape, or
-/// that a plane crosses, is left to the accelerator.
+/// A sphere apart from everything is answered alone; one that spheres or planes reach into (touching,
+/// within the clearance, overlapping, inside it, crossing it) is answered with them, as the
+/// accelerators answer; one that a triangle reaches, or more than eight shapes, is left to the
+/// accelerator.
 #[test]
-fn only_spheres_nothing_reaches_are_clear() {
+fn spheres_are_answered_with_the_spheres_and_planes_near_them() {
     let ball = |x: f32, r: f32| Primitive::Sphere(Sphere { center: Vec3A::new(x, 0.0, 0.0), radius: r });
     let triangle_at = |z: f32| {
         Primitive::Triangle(Triangle::new(Vec3A::new(-5.0, -5.0, z), Vec3A::new(5.0, -5.0, z), Vec3A::new(0.0, 5.0, z)))
     };
+    let plane_at = |z: f32| Primitive::Plane(Plane { point: Vec3A::new(0.0, 0.0, z), normal: Vec3A::Z });
+    // Answered or not from the centre of the first sphere, along +x and up; where answered, as the list.
     let answered = |prims: &[Primitive]| {
-        let clear = Interiors::new(prims, |_| true, STILL);
-        clear.closest_hit(&Ray::new(Vec3A::ZERO, Vec3A::X), Interval::POSITIVE, 0).is_some()
+        let interiors = Interiors::new(prims, |_| true, STILL);
+        let list = BruteForce::new(prims.to_vec());
+        let answers = [Vec3A::X, Vec3A::new(0.3, 0.1, 1.0).normalize()].map(|dir| {
+            let ray = Ray::new(Vec3A::ZERO, dir);
+            let found = interiors.closest_hit(&ray, Interval::POSITIVE, 0);
+            if found.is_some() {
+                assert_eq!(found, list.closest_hit(&ray, Interval::POSITIVE), "{prims:?} along {dir}");
+            }
+            found.is_some()
+        });
+        assert_eq!(answers[0], answers[1]);
+        answers[0]
     };
     assert!(answered(&[ball(0.0, 1.0), ball(2.1, 1.0)]), "a neighbour 0.1 away");
     assert!(answered(&[ball(0.0, 1.0), triangle_at(1.01)]), "a triangle 0.01 away");
-    assert!(!answered(&[ball(0.0, 1.0), ball(2.0, 1.0)]), "touching");
-    assert!(!answered(&[ball(0.0, 1.0), ball(2.0 + 1e-5, 1.0)]), "within the clearance");
-    assert!(!answered(&[ball(0.0, 1.0), ball(1.5, 1.0)]), "overlapping");
-    assert!(!answered(&[ball(0.0, 1.0), ball(0.2, 0.1)]), "a bubble inside");
+    assert!(answered(&[ball(0.0, 1.0), ball(2.0, 1.0)]), "touching");
+    assert!(answered(&[ball(0.0, 1.0), ball(2.0 + 1e-5, 1.0)]), "within the clearance");
+    assert!(answered(&[ball(0.0, 1.0), ball(1.5, 1.0)]), "overlapping");
+    assert!(answered(&[ball(0.0, 1.0), ball(0.5, 0.1)]), "a bubble inside");
+    assert!(answered(&[ball(0.0, 1.0), plane_at(0.9)]), "a plane through it");
+    assert!(answered(&[ball(0.0, 1.0), plane_at(1.1)]), "a plane 0.1 away");
     assert!(!answered(&[ball(0.0, 1.0), triangle_at(0.5)]), "a triangle through it");
     assert!(!answered(&[ball(0.0, 1.0), triangle_at(1.0)]), "a triangle touching it");
-    let plane = Primitive::Plane(Plane { point: Vec3A::new(0.0, 0.0, 0.9), normal: Vec3A::Z });
-    assert!(!answered(&[ball(0.0, 1.0), plane]), "a plane through it");
-    let far_plane = Primitive::Plane(Plane { point: Vec3A::new(0.0, 0.0, 1.1), normal: Vec3A::Z });
-    assert!(answered(&[ball(0.0, 1.0), far_plane]), "a plane 0.1 away");
+    let crowded: Vec<Primitive> = (0..10).map(|k| ball(0.0, 1.0 + k as f32 * 0.05)).collect();
+    assert!(!answered(&crowded), "nine spheres reaching into it");
+    assert!(answered(&crowded[..9]), "eight");
     // Only the spheres asked for are examined.
     let none = Interiors::new(&[ball(0.0, 1.0)], |_| false, STILL);
-    assert!(!none.any_clear());
+    assert!(!none.answers_any());
 }
 
 /// A ray that starts outside a clear sphere (not a spawned one) is left to the accelerator: a shape
