@@ -77,9 +77,10 @@ pub struct World<A, M> {
     pub vertex_normals: Vec<[Vec3A; 3]>,
     /// The point lights.
     pub lights: Vec<Light>,
-    /// The glass spheres ([`Interiors`]): rays refracted into one that no other primitive reaches
-    /// into, or reflected inside it, find their closest hit on it without the accelerator, and shadow
-    /// rays from inside any of them test it first. Empty: every ray asks the accelerator.
+    /// The glass spheres ([`Interiors`]): rays refracted into one, or reflected inside it, find their
+    /// closest hit on it, or on the few spheres and planes that reach into it, without the
+    /// accelerator, and shadow rays from inside any of them test it first. Empty: every ray asks the
+    /// accelerator.
     pub interiors: Interiors,
     /// What escaping rays return.
     pub background: Background,

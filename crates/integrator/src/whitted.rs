@@ -1,3 +1,5 @@
+#[cfg(doc)]
+use raylume_accel::Interiors;
 use raylume_accel::{Accelerator, PrimitiveHit};
 use raylume_geometry::{Interval, Ray, Vec2, Vec3, Vec3A, offset_ray_origin, sampling::uniform_ball};
 use raylume_intersect::Hit;
@@ -228,8 +230,9 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 stats.reflection += 1;
                 let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
                 let all = Interval::new(0.0, f32::INFINITY);
-                // The ray that goes (or stays) inside the solid: on a clear sphere, its hit is on it.
-                let closest_hit = |ray: &Ray, inside: bool| match inside {
+                // The ray that goes (or stays) inside the solid: inside a glass sphere, its hit is on
+                // the sphere or on the few shapes that reach into it (`Interiors`).
+                let closest_hit = |ray: &Ray, goes_in: bool| match goes_in {
                     true => {
                         world.interiors.closest_hit(ray, all, primitive).or_else(|| world.accel.closest_hit(ray, all))
                     }

@@ -1,6 +1,6 @@
-//! Rays refracted into a clear glass sphere, or reflected inside it, find their hits on it without the
-//! accelerator, and shadow rays from inside a glass sphere are occluded by it: the image is the one the
-//! accelerator alone makes, bit for bit.
+//! Rays refracted into a glass sphere, or reflected inside it, find their hits on it (or on the shapes
+//! that reach into it) without the accelerator, and shadow rays from inside a glass sphere are occluded
+//! by it: the image is the one the accelerator alone makes, bit for bit.
 
 use raylume_accel::{Accelerator, BruteForce, Bvh, Interiors};
 use raylume_camera::{Pinhole, View};
