@@ -92,7 +92,7 @@ proptest! {
     fn rays_from_inside_spheres_hit_what_the_accelerators_hit(
         centres in prop::collection::vec((arb_point(2.0), 0.2f32..0.9), 1..8),
         cuts in prop::collection::vec((arb_point(2.5), arb_point(2.5), arb_point(2.5)), 0..4),
-        scale in prop::sample::select(vec![1e-3f32, 1.0, 3e4]),
+        scale in prop::sample::select(vec![1e-14f32, 1e-3, 1.0, 3e4, 1e14]),
         offset in arb_point(100.0),
         targets in prop::collection::vec(arb_point(2.0), 40),
         turns in prop::collection::vec(arb_point(1.0), 1..8),
