@@ -2,6 +2,7 @@
 //! inside it, or a shadow ray from its inner surface) meets that sphere on its way out, and before
 //! anything else but the few shapes that reach into the sphere.
 
+use glam::DVec3;
 use raylume_geometry::{Aabb, Interval, Plane, Ray, Sphere, Triangle, Vec3A};
 use raylume_intersect::Intersect;
 
@@ -129,9 +130,8 @@ impl Interiors {
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, t_range: Interval, inside: u32) -> Option<PrimitiveHit> {
         let &Inside { sphere, reach2, first, count } = self.sphere(inside)?;
-        let from = sub(v64(ray.origin), v64(sphere.center));
         // A NaN origin is not inside either.
-        let starts_inside = dot(from, from) <= reach2;
+        let starts_inside = ray.origin.as_dvec3().distance_squared(sphere.center.as_dvec3()) <= reach2;
         if !starts_inside {
             return None;
         }
@@ -174,19 +174,19 @@ impl Interiors {
 
 /// The size the clearance of `sphere` is relative to: its radius or its centre's largest coordinate.
 fn scale(sphere: &Sphere) -> f64 {
-    v64(sphere.center).iter().fold(sphere.radius as f64, |m, x| m.max(x.abs()))
+    sphere.center.as_dvec3().abs().max_element().max(sphere.radius as f64)
 }
 
 /// Whether `other` stays farther than the clearance from `sphere`'s surface on the outside.
 fn apart<P: Intersect>(sphere: &Sphere, other: &P, shutter: Interval) -> bool {
-    let c = v64(sphere.center);
+    let c = sphere.center.as_dvec3();
     let r = sphere.radius as f64;
     let scale = scale(sphere);
     let far = |distance: f64, extent: f64| distance > r + CLEARANCE * scale.max(extent);
     // A gap along one axis between the box and the centre: the box's distance is no smaller.
     let gap = |b: &Aabb, extent: f64| {
-        let (lo, hi) = (v64(b.min), v64(b.max));
-        (0..3).any(|k| far(lo[k] - c[k], extent) || far(c[k] - hi[k], extent))
+        let (lo, hi) = (b.min.as_dvec3() - c, c - b.max.as_dvec3());
+        (0..3).any(|k| far(lo[k], extent) || far(hi[k], extent))
     };
     if let Some(t) = other.as_triangle() {
         // The vertices' box holds every point of the triangle.
@@ -195,9 +195,8 @@ fn apart<P: Intersect>(sphere: &Sphere, other: &P, shutter: Interval) -> bool {
         return gap(&b, extent) || far(triangle_distance(c, &t), extent);
     }
     if let Some(plane) = other.as_plane() {
-        let (p, n) = (v64(plane.point), v64(plane.normal));
-        let d = dot(sub(c, p), n).abs() / dot(n, n).sqrt();
-        return far(d, p.iter().fold(0.0, |m: f64, x| m.max(x.abs())));
+        let (p, n) = (plane.point.as_dvec3(), plane.normal.as_dvec3());
+        return far((c - p).dot(n).abs() / n.length(), p.abs().max_element());
     }
     let bounds = other.bounds_over(shutter);
     if bounds.is_empty() {
@@ -212,59 +211,39 @@ fn apart<P: Intersect>(sphere: &Sphere, other: &P, shutter: Interval) -> bool {
         return true;
     }
     if let Some(s) = other.as_sphere() {
-        return far(norm(sub(c, v64(s.center))) - s.radius as f64, extent);
+        return far(c.distance(s.center.as_dvec3()) - s.radius as f64, extent);
     }
     false
 }
 
-fn v64(v: Vec3A) -> [f64; 3] {
-    [v.x as f64, v.y as f64, v.z as f64]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
 /// The distance from `p` to the box `b` (zero inside).
-fn box_distance(p: [f64; 3], b: &Aabb) -> f64 {
-    let (lo, hi) = (v64(b.min), v64(b.max));
-    let gap = |k: usize| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
-    norm([gap(0), gap(1), gap(2)])
+fn box_distance(p: DVec3, b: &Aabb) -> f64 {
+    (b.min.as_dvec3() - p).max(p - b.max.as_dvec3()).max(DVec3::ZERO).length()
 }
 
 /// The distance from `p` to the triangle `t` (its closest point by the regions of its vertices,
 /// edges and face, as in Ericson's *Real-Time Collision Detection*, 5.1.5).
-fn triangle_distance(p: [f64; 3], t: &Triangle) -> f64 {
-    let [a, b, c] = t.p.map(v64);
-    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
-    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+fn triangle_distance(p: DVec3, t: &Triangle) -> f64 {
+    let [a, b, c] = t.p.map(Vec3A::as_dvec3);
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {
-        return norm(ap);
+        return ap.length();
     }
-    let bp = sub(p, b);
-    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
     if d3 >= 0.0 && d4 <= d3 {
-        return norm(bp);
+        return bp.length();
     }
-    let along = |from: [f64; 3], dir: [f64; 3], s: f64| {
-        norm(sub(p, [from[0] + dir[0] * s, from[1] + dir[1] * s, from[2] + dir[2] * s]))
-    };
+    let along = |from: DVec3, dir: DVec3, s: f64| p.distance(from + dir * s);
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
         return along(a, ab, d1 / (d1 - d3));
     }
-    let cp = sub(p, c);
-    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
     if d6 >= 0.0 && d5 <= d6 {
-        return norm(cp);
+        return cp.length();
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
@@ -272,7 +251,7 @@ fn triangle_distance(p: [f64; 3], t: &Triangle) -> f64 {
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return along(b, sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+        return along(b, c - b, (d4 - d3) / ((d4 - d3) + (d5 - d6)));
     }
     let denom = va + vb + vc;
     if denom.is_nan() || denom <= 0.0 {
@@ -280,6 +259,5 @@ fn triangle_distance(p: [f64; 3], t: &Triangle) -> f64 {
         return 0.0;
     }
     let (v, w) = (vb / denom, vc / denom);
-    let q = [a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w];
-    norm(sub(p, q))
+    p.distance(a + ab * v + ac * w)
 }
