@@ -8,15 +8,16 @@ use raylume_intersect::Intersect;
 
 use crate::PrimitiveHit;
 
-/// Most sphere-primitive pairs [`Interiors::new`] examines; past it, no sphere is taken as clear.
+/// Most sphere-primitive pairs [`Interiors::new`] examines; past it, no sphere's inside rays are
+/// answered (its shadow rays still are).
 const MOST_PAIRS: usize = 1 << 20;
 
 /// Most shapes that may reach into a sphere whose inside rays [`Interiors::closest_hit`] answers.
 const MOST_NEAR: usize = 8;
 
-/// How far every other primitive must stay from a sphere (or be one of its near shapes), relative to the scene's coordinates
-/// there: far more than the rounding of a point spawned inside the sphere, or of a hit on the other
-/// primitive, can move either.
+/// How far every other primitive must stay from a sphere (or be one of its near shapes), relative to
+/// the scene's coordinates there: far more than the rounding of a point spawned inside the sphere, or
+/// of a hit on the other primitive, can move either.
 const CLEARANCE: f64 = 1.0 / 8192.0;
 
 /// The spheres of a list of primitives that rays start inside (glass balls), by the sphere's own
@@ -77,9 +78,10 @@ enum Near {
 }
 
 impl Interiors {
-    /// The spheres of `prims` among those `wanted` picks (by index), and which of them are clear,
-    /// moving primitives taken over `shutter`. Examines every pair of a wanted sphere and another
-    /// primitive, unless there are more than a million pairs: then none is taken as clear.
+    /// The spheres of `prims` among those `wanted` picks (by index), and the near shapes of those
+    /// whose inside rays are answered, moving primitives taken over `shutter`. Examines every pair of
+    /// a wanted sphere and another primitive, unless there are more than about a million pairs: then
+    /// no sphere's inside rays are answered.
     pub fn new<P: Intersect>(prims: &[P], wanted: impl Fn(usize) -> bool, shutter: Interval) -> Self {
         let candidates: Vec<usize> =
             (0..prims.len()).filter(|&i| wanted(i) && prims[i].as_sphere().is_some_and(|s| s.radius > 0.0)).collect();
