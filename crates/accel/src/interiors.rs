@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 use raylume_geometry::{Aabb, Interval, Plane, Ray, Sphere, Triangle, Vec3A};
-use raylume_intersect::Intersect;
+use raylume_intersect::{Intersect, leaves_sphere_within};
 
 use crate::PrimitiveHit;
 
@@ -159,6 +159,10 @@ impl Interiors {
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32, inside: u32) -> bool {
         let Some(Inside { sphere, .. }) = self.sphere(inside) else { return false };
+        // Most such rays head well into the sphere towards a light beyond it: no roots needed.
+        if leaves_sphere_within(&sphere, ray, t_max) && !ray.time.is_nan() {
+            return true;
+        }
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| sphere.occluded_canonical(ray, t_max))
     }
 

@@ -19,7 +19,7 @@ use glam::Vec4;
 pub use lanes::{LaneRoots, RayLanes, SphereLanes, sphere_roots, spheres_roots};
 pub use primitive::Primitive;
 use raylume_geometry::{Aabb, Interval, Plane, Ray, Sphere, Triangle, Vec2, Vec3A};
-pub use shapes::intersect_moller_trumbore;
+pub use shapes::{intersect_moller_trumbore, leaves_sphere_within};
 pub use watertight::{
     ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit, decided_distance, edge_error, has_unit_normal,
     intersect_watertight, normal64_magnitude, unit_normal, watertight_decide, watertight_hits,

@@ -102,6 +102,42 @@ pub(crate) fn sphere_hit_at(center: Vec3A, radius: f32, ray: &Ray, t: f32) -> Op
     Some(Hit { t, point, normal, uv: Vec2::ZERO, error: q + curve_depth(q, radius) })
 }
 
+/// Whether a canonical ray that starts on `sphere`'s surface or inside it and heads inward by more than
+/// a grazing angle certainly meets the sphere within `(0, t_max)`: a shadow ray leaving a glass ball
+/// from its inner surface towards a light beyond it. `true` is the answer of the sphere's
+/// [`Intersect::occluded_canonical`] on that ray, found without its roots; `false` says nothing.
+///
+/// The origin's distance from the centre is at most the radius and `2^-14` of it, the direction's
+/// cosine with the line to the centre is above about `1/32`, and `t_max` reaches `2.5` radii along the
+/// ray; then the line passes the centre within `0.9996` radii, the discriminant is positive for every
+/// rounding of its terms (they err by about `2^-20` of the radius's square), the roots are not both
+/// negative, and the larger one lies within `2.001` radii along the ray, so the routine finds a root
+/// in the range.
+///
+/// ```
+/// use raylume_geometry::{Ray, Sphere, Vec3A};
+/// use raylume_intersect::{Intersect, leaves_sphere_within};
+/// let ball = Sphere { center: Vec3A::ZERO, radius: 1.0 };
+/// let ray = Ray::new(Vec3A::new(0.999_999, 0.0, 0.0), Vec3A::new(-0.8, 0.6, 0.0));
+/// assert!(leaves_sphere_within(&ball, &ray, 100.0) && ball.occluded_canonical(&ray, 100.0));
+/// // Short of the far side: the routine decides.
+/// assert!(!leaves_sphere_within(&ball, &ray, 1.0));
+/// ```
+#[inline(always)]
+pub fn leaves_sphere_within(sphere: &Sphere, ray: &Ray, t_max: f32) -> bool {
+    let r2 = sphere.radius * sphere.radius;
+    // Exact: the origin is within a factor of two of the centre wherever it is near the surface.
+    let f = ray.origin - sphere.center;
+    let a = ray.dir.length_squared();
+    let half_b = f.dot(ray.dir);
+    sphere_radius_in_range(sphere.radius)
+        && ray.is_canonical()
+        && f.length_squared() <= r2 * (1.0 + 1.0 / 8192.0)
+        && half_b < 0.0
+        && half_b * half_b >= r2 * a * (1.0 / 1024.0)
+        && t_max * t_max * a >= 6.25 * r2
+}
+
 /// Whether the f32 routine takes a sphere of this radius ([`sphere_root`]); beyond, f64 decides.
 #[inline(always)]
 pub(crate) fn sphere_radius_in_range(radius: f32) -> bool {

@@ -407,3 +407,41 @@ proptest! {
         prop_assert!(b.contains(m.center_at(time)));
     }
 }
+
+proptest! {
+    /// A ray from on or just inside a sphere (or just outside it) that `leaves_sphere_within` says
+    /// meets the sphere is occluded by the sphere's own routine: spheres at scales 1e-14..1e14, centres
+    /// up to 1e3 radii away from the origin of coordinates, origins from 2^-12 inside to 2^-7 outside
+    /// the surface, every direction, and ends from 1.5 to 4 radii along the ray and beyond.
+    #[test]
+    fn rays_leaving_a_sphere_are_occluded_by_it(scale in -14i32..=14, offset in finite_vec(1e3), r in 0.5f32..2.0,
+                                                 at in unit_vec(), depth in prop_oneof![-1.0f32..0.5, 0.5f32..40.0], seed in 0u32..1000) {
+        let unit = 10f32.powi(scale);
+        let radius = r * unit;
+        let sphere = Sphere { center: offset * unit, radius };
+        let origin = sphere.center + at * (radius * (1.0 + depth / 4096.0));
+        let from_centre = (0..3).map(|k| (origin[k] as f64 - sphere.center[k] as f64).powi(2)).sum::<f64>().sqrt();
+        // Within the band the test allows, by a margin: heading well inwards, such rays are decided.
+        let in_band = from_centre <= radius as f64 * (1.0 + 1.0 / 32768.0);
+        for k in 0..64u32 {
+            // Directions spread over the sphere of directions, many near grazing the surface.
+            let h = (seed.wrapping_mul(2654435761) ^ k.wrapping_mul(40503)) as f32 / u32::MAX as f32;
+            let phi = k as f32 * 2.399_963;
+            let cos = if k % 4 == 0 { (h - 0.5) * 0.1 } else { 2.0 * h - 1.0 };
+            let sin = (1.0 - cos * cos).max(0.0).sqrt();
+            let (u, w) = at.any_orthonormal_pair();
+            let dir = (-at * cos + (u * phi.cos() + w * phi.sin()) * sin).normalize();
+            let Some((ray, _)) = Ray::new(origin, dir).canonical() else { continue };
+            let reach = radius / ray.dir.length();
+            for t_max in [1.5, 1.9, 2.0, 2.05, 2.5, 2.6, 4.0].map(|k| k * reach).into_iter().chain([f32::INFINITY]) {
+                let decided = raylume_intersect::leaves_sphere_within(&sphere, &ray, t_max);
+                if decided {
+                    prop_assert!(sphere.occluded_canonical(&ray, t_max),
+                        "said to leave within {t_max:e}: {ray:?} from {:e} of the radius", depth / 4096.0);
+                }
+                // Not vacuous: rays heading well inwards from the band, to a light past the sphere.
+                prop_assert!(decided || !(in_band && cos > 0.05 && t_max >= 2.6 * reach), "undecided: {ray:?}");
+            }
+        }
+    }
+}
