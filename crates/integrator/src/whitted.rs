@@ -232,18 +232,23 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 let all = Interval::new(0.0, f32::INFINITY);
                 // The ray that goes (or stays) inside the solid: inside a glass sphere, its hit is on
                 // the sphere or on the few shapes that reach into it (`Interiors`).
-                let closest_hit = |ray: &Ray, goes_in: bool| match goes_in {
-                    true => {
-                        world.interiors.closest_hit(ray, all, primitive).or_else(|| world.accel.closest_hit(ray, all))
-                    }
-                    false => world.accel.closest_hit(ray, all),
-                };
+                macro_rules! closest_hit {
+                    ($ray:expr, $goes_in:expr) => {
+                        match $goes_in {
+                            true => world
+                                .interiors
+                                .closest_hit($ray, all, primitive)
+                                .or_else(|| world.accel.closest_hit($ray, all)),
+                            false => world.accel.closest_hit($ray, all),
+                        }
+                    };
+                }
                 match refracted.filter(|_| kr < 1.0) {
                     Some(dir) => {
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
-                        let (found_r, found_t) = (closest_hit(&r, !entering), closest_hit(&t, entering));
+                        let (found_r, found_t) = (closest_hit!(&r, !entering), closest_hit!(&t, entering));
                         add_direct!();
                         color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
                         color += (1.0 - kr)
@@ -251,7 +256,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                             * self.shade_found(world, &t, found_t, depth + 1, sample, stats);
                     }
                     None => {
-                        let found_r = closest_hit(&r, !entering);
+                        let found_r = closest_hit!(&r, !entering);
                         add_direct!();
                         color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
                     }
