@@ -463,6 +463,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
                 continue;
             }
             let area = SOFT != SoftShadows::NONE && light.is_area();
+            let centre = light.centre();
             let lit = &mut lit[l * count..(l + 1) * count];
             let mut slots = shadow.iter_mut().zip(ends.iter_mut()).zip(owners.iter_mut());
             let mut traced = 0;
@@ -474,7 +475,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
                     && let Some((r, dist)) = shadow_ray(
                         s.above,
                         s.n,
-                        if area { area_point(light, sample.light()) } else { light.centre() },
+                        if area { area_point(light, sample.light()) } else { centre },
                         ray.time,
                     )
                 {
