@@ -361,7 +361,8 @@ fn shape_at(kind: Kind, r: &mut Pcg32, s: f32, centre: Vec3A) -> Primitive {
 
 const ACCEL_NAMES: [&str; 4] = ["brute force", "bvh portable", "bvh best kernel", "grid"];
 
-/// One of the four accelerators under test.
+/// One of the four accelerators under test (a few built per case: their sizes do not matter).
+#[allow(clippy::large_enum_variant)]
 enum AnyAccel {
     Brute(BruteForce<Primitive>),
     Bvh(Bvh<Primitive>),

@@ -160,7 +160,7 @@ impl Interiors {
     pub fn occluded(&self, ray: &Ray, t_max: f32, inside: u32) -> bool {
         let Some(Inside { sphere, .. }) = self.sphere(inside) else { return false };
         // Most such rays head well into the sphere towards a light beyond it: no roots needed.
-        if leaves_sphere_within(&sphere, ray, t_max) && !ray.time.is_nan() {
+        if leaves_sphere_within(sphere, ray, t_max) && !ray.time.is_nan() {
             return true;
         }
         crate::occluded_on_canonical(ray, t_max, |ray, t_max| sphere.occluded_canonical(ray, t_max))

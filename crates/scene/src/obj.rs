@@ -426,13 +426,11 @@ impl<'n> Reader<'n> {
     }
 
     /// A face: its corners' references resolved, then its triangles.
-    fn face(&mut self, line: &Line, mut words: Words) -> Result<(), SceneError> {
+    fn face(&mut self, line: &Line, words: Words) -> Result<(), SceneError> {
         let mut corners = std::mem::take(&mut self.corners);
         corners.clear();
         let mut refs = Vec::new();
-        while let Some((word, column)) = words.next() {
-            refs.push((word, column));
-        }
+        refs.extend(words);
         if refs.len() < 3 {
             if self.short_faces == 0 {
                 let corners = if refs.len() == 1 { "corner" } else { "corners" };
