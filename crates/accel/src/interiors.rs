@@ -137,6 +137,10 @@ impl Interiors {
         if !starts_inside {
             return None;
         }
+        if count == 0 && ray.is_canonical() && ray.origin.is_finite() && !ray.time.is_nan() {
+            // A clear sphere: its own hit, as it is.
+            return sphere.intersect_canonical(ray, t_range).map(|hit| PrimitiveHit { hit, primitive: inside });
+        }
         crate::closest_on_canonical(ray, t_range, |ray, t_range| {
             let mut best = Some(PrimitiveHit { hit: sphere.intersect_canonical(ray, t_range)?, primitive: inside });
             for &(primitive, shape) in &self.near[first as usize..(first + count) as usize] {

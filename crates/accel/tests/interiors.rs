@@ -51,6 +51,17 @@ fn check(prims: &[Primitive], eye: Vec3A, targets: &[Vec3A], turns: &[Vec3A]) ->
                 assert_eq!(Some(found), expected, "ray {r:?} inside primitive {}", first.primitive);
                 answered += 1;
             }
+            // Ranges that end short of the exit, about at it, or start past where the ray may meet
+            // a near shape.
+            if let Some(exit) = expected.map(|h| h.hit.t) {
+                for range in [(0.0, 0.5), (0.0, 0.999), (0.0, 1.001), (0.5, f32::INFINITY), (1.001, f32::INFINITY)]
+                    .map(|(a, b)| Interval::new(exit * a, exit * b))
+                {
+                    if let Some(found) = clear.closest_hit(&r, range, first.primitive) {
+                        assert_eq!(Some(found), list.closest_hit(&r, range), "ray {r:?} within {range:?}");
+                    }
+                }
+            }
             // Shadow rays from inside: towards the eye, and along the ray to lights short of where it
             // leaves the sphere, about there, and beyond.
             let to_eye = eye - r.origin;
