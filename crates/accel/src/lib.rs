@@ -113,7 +113,16 @@ fn closest_on_canonical(
     t_range: Interval,
     query: impl FnOnce(&Ray, Interval) -> Option<PrimitiveHit>,
 ) -> Option<PrimitiveHit> {
-    on_canonical(ray, t_range, query).map(|(mut h, s)| {
+    if ray.is_canonical() {
+        // The direction is finite and normal: the rest of `Ray::is_valid`.
+        if !ray.origin.is_finite() || ray.time.is_nan() {
+            return None;
+        }
+        // The answer as it is: no scale to take back.
+        return query(ray, t_range);
+    }
+    let (scaled, s) = rescale(ray)?;
+    query(&scaled, t_range.on_canonical(s)).map(|mut h| {
         h.hit.t *= s;
         h
     })
