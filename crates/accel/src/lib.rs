@@ -81,22 +81,24 @@ impl PrimitiveHit {
 
 /// A query on the canonical form of `ray` ([`Ray::canonical`]): the accelerators answer every
 /// direction `2^k d` alike, bit for bit, with `t` scaled by `2^-k`. Unit directions are canonical
-/// already: they go to the query as they are.
+/// already: they go to the query as they are, and so does its answer; a rescaled ray's answer is
+/// taken back by `back(answer, s)`.
 #[inline(always)]
-fn on_canonical<R>(ray: &Ray, t_range: Interval, query: impl FnOnce(&Ray, Interval) -> Option<R>) -> Option<(R, f32)> {
-    let scaled;
-    let (ray, t_range, s) = if ray.is_canonical() {
+fn on_canonical<R>(
+    ray: &Ray,
+    t_range: Interval,
+    query: impl FnOnce(&Ray, Interval) -> Option<R>,
+    back: impl FnOnce(R, f32) -> R,
+) -> Option<R> {
+    if ray.is_canonical() {
         // The direction is finite and normal: the rest of `Ray::is_valid`.
         if !ray.origin.is_finite() || ray.time.is_nan() {
             return None;
         }
-        (ray, t_range, 1.0)
-    } else {
-        let s;
-        (scaled, s) = rescale(ray)?;
-        (&scaled, t_range.on_canonical(s), s)
-    };
-    query(ray, t_range).map(|r| (r, s))
+        return query(ray, t_range);
+    }
+    let (scaled, s) = rescale(ray)?;
+    query(&scaled, t_range.on_canonical(s)).map(|r| back(r, s))
 }
 
 /// [`Ray::canonical`] out of line: the path of rays that are not canonical as they are made.
@@ -113,16 +115,7 @@ fn closest_on_canonical(
     t_range: Interval,
     query: impl FnOnce(&Ray, Interval) -> Option<PrimitiveHit>,
 ) -> Option<PrimitiveHit> {
-    if ray.is_canonical() {
-        // The direction is finite and normal: the rest of `Ray::is_valid`.
-        if !ray.origin.is_finite() || ray.time.is_nan() {
-            return None;
-        }
-        // The answer as it is: no scale to take back.
-        return query(ray, t_range);
-    }
-    let (scaled, s) = rescale(ray)?;
-    query(&scaled, t_range.on_canonical(s)).map(|mut h| {
+    on_canonical(ray, t_range, query, |mut h, s| {
         h.hit.t *= s;
         h
     })
@@ -134,7 +127,7 @@ fn occluded_on_canonical(ray: &Ray, t_max: f32, query: impl FnOnce(&Ray, f32) ->
     if t_max.is_nan() {
         return false;
     }
-    on_canonical(ray, Interval::new(0.0, t_max), |ray, range| query(ray, range.max).then_some(())).is_some()
+    on_canonical(ray, Interval::new(0.0, t_max), |ray, range| query(ray, range.max).then_some(()), |r, _| r).is_some()
 }
 
 /// Counts the work of a query. `()` counts nothing (the render path); `u64` counts primitive tests;
