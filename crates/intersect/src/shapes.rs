@@ -126,7 +126,7 @@ pub(crate) fn sphere_hit_at(center: Vec3A, radius: f32, ray: &Ray, t: f32) -> Op
 #[inline(always)]
 pub fn leaves_sphere_within(sphere: &Sphere, ray: &Ray, t_max: f32) -> bool {
     let r2 = sphere.radius * sphere.radius;
-    // Exact: the origin is within a factor of two of the centre wherever it is near the surface.
+    // Each coordinate rounded once, within 2^-24 of itself: the margins below are far wider.
     let f = ray.origin - sphere.center;
     let a = ray.dir.length_squared();
     let half_b = f.dot(ray.dir);

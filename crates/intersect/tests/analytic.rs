@@ -411,8 +411,8 @@ proptest! {
 proptest! {
     /// A ray from on or just inside a sphere (or just outside it) that `leaves_sphere_within` says
     /// meets the sphere is occluded by the sphere's own routine: spheres at scales 1e-14..1e14, centres
-    /// up to 1e3 radii away from the origin of coordinates, origins from 2^-12 inside to 2^-7 outside
-    /// the surface, every direction, and ends from 1.5 to 4 radii along the ray and beyond.
+    /// up to 1e3 radii away from the origin of coordinates, origins from 1/4096 of the radius inside
+    /// the surface to 40/4096 outside it, every direction, and ends from 1.5 to 4 radii along the ray and beyond.
     #[test]
     fn rays_leaving_a_sphere_are_occluded_by_it(scale in -14i32..=14, offset in finite_vec(1e3), r in 0.5f32..2.0,
                                                  at in unit_vec(), depth in prop_oneof![-1.0f32..0.5, 0.5f32..40.0], seed in 0u32..1000) {
