@@ -138,9 +138,8 @@ impl Interiors {
             return None;
         }
         if count == 0 && ray.is_canonical() && ray.origin.is_finite() && !ray.time.is_nan() {
-            // A clear sphere: its own hit, as it is (the valid canonical ray of `closest_on_canonical`,
-            // written here: through it, with the near shapes' loop beside, the compiler spends 2 %
-            // more of mount_low).
+            // A clear sphere: its own hit, as it is (`closest_on_canonical`'s check of a canonical ray,
+            // written here: through it, beside the near shapes' loop, the query compiles longer).
             return sphere.intersect_canonical(ray, t_range).map(|hit| PrimitiveHit { hit, primitive: inside });
         }
         crate::closest_on_canonical(ray, t_range, |ray, t_range| {
