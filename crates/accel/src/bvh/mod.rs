@@ -52,6 +52,11 @@ const SAH_LEAF: usize = 1;
 /// one per slot of a single node, tested together, then each shape whose box the ray meets. The walk's
 /// stack and the ordering of the children cost more than the tests they save on so few.
 const FLAT_OTHERS: usize = FewShapes::MAX;
+/// Most spheres (and no other shapes but triangles) whose closest hit queries find from every sphere's
+/// roots, four to a group of lanes, without walking their tree: for so few, the roots cost less than
+/// the walk's set-up, its stack and the ordering of its nodes' children. (Any-hit queries walk it: its
+/// boxes end most of them at the root.)
+const FLAT_SPHERES: usize = 16;
 /// Size of the triangles' structure (nodes, leaves and their boxes) above which walks prefetch the next subtree:
 /// measured, random rays on bunny_loop3 (13 MB) gain 7–17 %, and camera rays on bunny_loop2 (3.4 MB)
 /// lose 3–5 % (docs/PERFORMANCE.md).
@@ -91,6 +96,10 @@ pub struct Bvh<P> {
     /// With [`Bvh::flat_others`], where every one of those shapes is a sphere: the spheres, each ray
     /// finding its roots on all of them at once instead of testing them box by box.
     flat_spheres: Option<SphereLanes>,
+    /// With more than [`FLAT_OTHERS`] and at most [`FLAT_SPHERES`] primitives other than triangles, all
+    /// spheres: the spheres, four to a group (group `g`, lane `l` holding primitive `4 g + l` of
+    /// `others`), each closest-hit query finding its roots on all of them at once.
+    more_spheres: Option<Box<[SphereLanes]>>,
     /// Where the BVH's kernel is AVX2: its token, under which the few spheres' roots are found too.
     avx2: Avx2,
     /// Where other shapes lie outside the box around the triangles (or planes run past it): that box. Rays from those shapes, or bounded by their hits, often miss
@@ -200,6 +209,10 @@ impl<P: Intersect + Clone> Bvh<P> {
             let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
             spheres.map(|s| SphereLanes::new(&s))
         });
+        let more_spheres = others.as_ref().filter(|(_, p, _)| (FLAT_OTHERS + 1..=FLAT_SPHERES).contains(&p.len())).and_then(|(_, p, _)| {
+            let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
+            spheres.map(|s| s.chunks(SPHERE_LANES).map(SphereLanes::new).collect())
+        });
         let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
             let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
             if unbounded.is_empty() && items.iter().all(inside) {
@@ -221,6 +234,7 @@ impl<P: Intersect + Clone> Bvh<P> {
             other_boxes,
             flat_others,
             flat_spheres,
+            more_spheres,
             avx2: Avx2::new(kernel),
             triangles_box,
             triangles_node,
@@ -334,6 +348,13 @@ impl<P: Intersect> Bvh<P> {
         {
             tally.visited();
             (0..spheres.used.count_ones()).for_each(|_| tally.tested());
+            return;
+        }
+        if let (Some(groups), Some((_, prims, ids))) = (&self.more_spheres, &self.others) {
+            tally.visited();
+            (0..prims.len()).for_each(|_| tally.tested());
+            let roots = self.avx2.run(|| FewRoots::of(groups, ray, t_range));
+            closest_of_spheres(groups, &roots, prims, ids, ray, t_range, best);
             return;
         }
         if let (Some(flat), Some((_, prims, ids))) = (&self.flat_others, &self.others) {
@@ -466,6 +487,77 @@ fn closest_sphere(
         hits &= !(1 << pick);
     }
     true
+}
+
+/// Spheres to a group of [`SphereLanes`].
+const SPHERE_LANES: usize = 4;
+
+/// The roots of a BVH's spheres ([`Bvh::more_spheres`]) for one ray, bit `i` of the masks and
+/// slot `i` of `t` for primitive `i` of its other shapes.
+struct FewRoots {
+    t: [f32; FLAT_SPHERES],
+    hit: u32,
+    undecided: u32,
+}
+
+impl FewRoots {
+    /// The roots of every sphere of `groups` within `t_range`, as [`spheres_roots`] finds each group's.
+    #[inline(always)]
+    fn of(groups: &[SphereLanes], ray: &Ray, t_range: Interval) -> Self {
+        let mut all = Self { t: [0.0; FLAT_SPHERES], hit: 0, undecided: 0 };
+        for (g, group) in groups.iter().enumerate() {
+            let roots = spheres_roots(group, ray, t_range.min, t_range.max);
+            let first = g * SPHERE_LANES;
+            if roots.hit != 0 {
+                all.t[first..first + SPHERE_LANES].copy_from_slice(&roots.t.to_array());
+            }
+            all.hit |= roots.hit << first;
+            all.undecided |= roots.undecided << first;
+        }
+        all
+    }
+}
+
+/// The closest hit within `t_range` of the spheres `groups` ([`Bvh::more_spheres`]: `prims`, with
+/// ids `ids`) whose roots within that range are `roots`, kept in `best` if it
+/// [beats](PrimitiveHit::beats) it. A sphere whose sizes leave it to the one-sphere routine's f64 path
+/// runs that routine; of the others, the hit is made for the closest root only (ties to the lowest
+/// id): the answer of the spheres tested one by one with the range shrinking to each hit, as a
+/// sphere's root within a smaller range is the same root or none.
+#[inline(always)]
+fn closest_of_spheres<P: Intersect>(
+    groups: &[SphereLanes],
+    roots: &FewRoots,
+    prims: &[P],
+    ids: &[u32],
+    ray: &Ray,
+    t_range: Interval,
+    best: &mut Option<PrimitiveHit>,
+) {
+    for lane in set_bits(roots.undecided) {
+        let l = lane as usize;
+        if let Some(hit) = prims[l].intersect_canonical(ray, t_range) {
+            PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: ids[l] });
+        }
+    }
+    let t = &roots.t;
+    let mut hits = roots.hit;
+    while hits != 0 {
+        let mut pick = hits.trailing_zeros() as usize;
+        for lane in set_bits(hits & (hits - 1)) {
+            let l = lane as usize;
+            if t[l] < t[pick] || (t[l] == t[pick] && ids[l] < ids[pick]) {
+                pick = l;
+            }
+        }
+        // A root whose point cannot be formed is no hit, and the next closest root stands.
+        let sphere = groups[pick / SPHERE_LANES].sphere(pick % SPHERE_LANES);
+        if let Some(hit) = sphere.hit_at_root(ray, t[pick], t_range) {
+            PrimitiveHit::keep_closer(best, PrimitiveHit { hit, primitive: ids[pick] });
+            return;
+        }
+        hits &= !(1 << pick);
+    }
 }
 
 /// The mean of the largest extent of `boxes` (`[min, max]` by axis); zero for none.
@@ -821,15 +913,16 @@ mod tests {
     }
 
     /// Up to [`FLAT_OTHERS`] shapes other than triangles are tested from one node of their boxes (all
-    /// at once where they are all spheres), more through their tree; every way answers every query as
-    /// the tree's walk, bit for bit: overlapping spheres, one held twice (a tie), rays from outside
-    /// and from their surfaces, ranges with and without a minimum.
+    /// at once where they are all spheres), up to [`FLAT_SPHERES`] spheres all at once for the closest
+    /// hit, more through their tree; every way answers every query as the tree's walk, bit for bit:
+    /// overlapping spheres, one held twice (a tie), one too small for the lanes' routine, rays from
+    /// outside and from their surfaces, ranges with and without a minimum.
     #[test]
     fn a_few_other_shapes_answer_as_their_tree() {
         let mut rng = Pcg32::new(5, 11);
         let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
         let mut point = |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
-        for n in 1..=FLAT_OTHERS + 1 {
+        for n in 1..=FLAT_SPHERES + 1 {
             let mut prims: Vec<Primitive> = (0..6)
                 .map(|_| {
                     let c = point(4.0);
@@ -841,14 +934,27 @@ mod tests {
                 .map(|_| raylume_geometry::Sphere { center: point(1.0), radius: 0.5 + point(0.5).x.abs() })
                 .collect();
             prims.extend(spheres.iter().map(|&s| Primitive::Sphere(s)));
-            if n == 3 {
+            if n % 4 == 3 {
                 prims.push(Primitive::Sphere(spheres[1]));
             }
+            if n % 5 == 2 {
+                // Undecided in their lanes (radii beyond the f32 routine's), answered by the routine: a
+                // tiny sphere in the cluster and a huge one below it, its top 2^28 down.
+                prims.push(Primitive::Sphere(raylume_geometry::Sphere { center: spheres[0].center, radius: 1e-16 }));
+                let (r, below) = (2f32.powi(51), 2f32.powi(28));
+                prims.push(Primitive::Sphere(raylume_geometry::Sphere { center: Vec3A::new(0.0, 0.0, -(r + below)), radius: r }));
+            }
             let flat = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
-            let few = n + (n == 3) as usize <= FLAT_OTHERS;
-            assert_eq!((flat.flat_others.is_some(), flat.flat_spheres.is_some()), (few, few));
-            let by_box = Bvh { flat_spheres: None, ..flat.clone() };
-            let walked = Bvh { flat_others: None, flat_spheres: None, triangles_box: None, ..flat.clone() };
+            let count = prims.len() - 6;
+            let few = count <= FLAT_OTHERS;
+            let more = !few && count <= FLAT_SPHERES;
+            assert_eq!(
+                (flat.flat_others.is_some(), flat.flat_spheres.is_some(), flat.more_spheres.is_some()),
+                (few, few, more)
+            );
+            let by_box = Bvh { flat_spheres: None, more_spheres: None, ..flat.clone() };
+            let walked =
+                Bvh { flat_others: None, flat_spheres: None, more_spheres: None, triangles_box: None, ..flat.clone() };
             let mut hits = 0;
             for k in 0..4000 {
                 let origin = if k % 4 == 0 {
