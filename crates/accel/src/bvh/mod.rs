@@ -2,8 +2,8 @@
 //! collapsed into wide nodes whose children's boxes a ray tests together: eight children in AVX
 //! registers on CPUs with AVX2 ([`BvhKernel::Avx2`]), four in SSE2 registers elsewhere
 //! ([`BvhKernel::Portable`]). Triangles live in their own tree, in leaves of up to eight laid out for
-//! the watertight test; other bounded shapes in a second (four-wide) tree; unbounded ones (planes) outside
-//! both.
+//! the watertight test; other bounded shapes in a second tree (four-wide, walked by packets, and
+//! eight-wide for single rays where the kernel is AVX2); unbounded ones (planes) outside both.
 //!
 //! The parts, each using only those listed after it:
 //! - this file: [`Bvh`], its constructor, its invariants ([`Bvh::validate`]) and its [`Accelerator`]
@@ -87,6 +87,9 @@ const PACKET_SPREAD: f64 = 4.0;
 pub struct Bvh<P> {
     triangles: Option<Triangles>,
     others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
+    /// Where the kernel is AVX2: the other shapes' tree with eight children to a node, walked by
+    /// single rays (packets walk the four-wide one).
+    others8: Option<WideTree<8>>,
     /// The box of each primitive of `others`, in its order, as its tree was built on it
     /// (`[min, max]` by axis): packets of rays test a leaf's box against four rays at a time.
     other_boxes: Vec<[f32; 6]>,
@@ -187,9 +190,14 @@ impl<P: Intersect + Clone> Bvh<P> {
         assert!(tri_items.len().max(items.len()) <= MAX_FIRST as usize, "a BVH holds at most 2^28 primitives");
         let triangles =
             (!tri_items.is_empty()).then(|| Triangles::build(&mut tri_items, &tris, method, kernel, prefetch_bytes));
+        let avx2 = Avx2::new(kernel);
+        let mut others8 = None;
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, SAH_LEAF);
             let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
+            if avx2.is_some() {
+                others8 = Some(WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count)));
+            }
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
             let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
             (tree, prims, ids)
@@ -209,10 +217,13 @@ impl<P: Intersect + Clone> Bvh<P> {
             let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
             spheres.map(|s| SphereLanes::new(&s))
         });
-        let more_spheres = others.as_ref().filter(|(_, p, _)| (FLAT_OTHERS + 1..=FLAT_SPHERES).contains(&p.len())).and_then(|(_, p, _)| {
-            let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
-            spheres.map(|s| s.chunks(SPHERE_LANES).map(SphereLanes::new).collect())
-        });
+        let more_spheres = others
+            .as_ref()
+            .filter(|(_, p, _)| (FLAT_OTHERS + 1..=FLAT_SPHERES).contains(&p.len()))
+            .and_then(|(_, p, _)| {
+                let spheres: Option<Vec<Sphere>> = p.iter().map(Intersect::as_sphere).collect();
+                spheres.map(|s| s.chunks(SPHERE_LANES).map(SphereLanes::new).collect())
+            });
         let triangles_box = triangles.as_ref().map(Triangles::bounds).and_then(|b| {
             let inside = |o: &BuildItem| o.bounds.min.cmpge(b.min).all() && o.bounds.max.cmple(b.max).all();
             if unbounded.is_empty() && items.iter().all(inside) {
@@ -231,11 +242,12 @@ impl<P: Intersect + Clone> Bvh<P> {
         Self {
             triangles,
             others,
+            others8,
             other_boxes,
             flat_others,
             flat_spheres,
             more_spheres,
-            avx2: Avx2::new(kernel),
+            avx2,
             triangles_box,
             triangles_node,
             unbounded,
@@ -251,6 +263,7 @@ impl<P> Bvh<P> {
     pub fn node_count(&self) -> usize {
         self.triangles.as_ref().map_or(0, Triangles::node_count)
             + self.others.as_ref().map_or(0, |(t, _, _)| t.node_count())
+            + self.others8.as_ref().map_or(0, WideTree::node_count)
     }
 
     /// Checks the hierarchy's invariants: each bounded primitive reached exactly once (each primitive
@@ -277,17 +290,20 @@ impl<P> Bvh<P> {
             if prims.len() != prim_ids.len() {
                 return Err(format!("{} ids for {} primitives", prim_ids.len(), prims.len()));
             }
+            // Each tree of them (four-wide, and eight-wide where the kernel is AVX2) reaches each once.
             let mut reached = vec![0usize; prims.len()];
-            tree.validate(|r, _| {
+            let mut leaf = |r, _| {
                 let (first, count) = leaf_range(r);
                 if count > MAX_LEAF || first + count > prims.len() {
                     return Err(format!("leaf {first} of {count} primitives, of {}", prims.len()));
                 }
                 reached[first..first + count].iter_mut().for_each(|n| *n += 1);
                 Ok(())
-            })?;
-            if let Some(i) = reached.iter().position(|&n| n != 1) {
-                return Err(format!("primitive {i} of the other shapes reached {} times", reached[i]));
+            };
+            tree.validate(&mut leaf)?;
+            let trees = 1 + self.others8.as_ref().map(|t| t.validate(&mut leaf)).transpose()?.is_some() as usize;
+            if let Some(i) = reached.iter().position(|&n| n != trees) {
+                return Err(format!("primitive {i} of the other shapes reached {} times in {trees} trees", reached[i]));
             }
             ids.extend(prim_ids);
         }
@@ -367,7 +383,7 @@ impl<P: Intersect> Bvh<P> {
                 }
             });
         } else if let Some((tree, prims, ids)) = &self.others {
-            tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut |leaf, t_max, tally: &mut T| {
+            let mut leaf = |leaf, t_max, tally: &mut T| {
                 let (first, count) = leaf_range(leaf);
                 let mut range = t_range.with_max(t_max);
                 for i in first..first + count {
@@ -378,7 +394,11 @@ impl<P: Intersect> Bvh<P> {
                     }
                 }
                 range.max
-            });
+            };
+            if !self.avx2.walk::<false, T, _>(self.others8.as_ref(), ray, (t_range.min, t_range.max), tally, &mut leaf)
+            {
+                tree.closest(&BoxRay::new(ray), t_range.min, t_range.max, tally, &mut leaf);
+            }
         }
     }
 
@@ -413,6 +433,18 @@ impl<P: Intersect> Bvh<P> {
                 prims[i].occluded_canonical(ray, t_max)
             });
         }
+        let mut hit = false;
+        let mut leaf = |leaf, end, tally: &mut T| {
+            let (first, count) = leaf_range(leaf);
+            hit = prims[first..first + count].iter().any(|p| {
+                tally.tested();
+                p.occluded_canonical(ray, t_max)
+            });
+            if hit { f32::NEG_INFINITY } else { end }
+        };
+        if self.avx2.walk::<true, T, _>(self.others8.as_ref(), ray, (0.0, t_max), tally, &mut leaf) {
+            return hit;
+        }
         tree.any(&BoxRay::new(ray), t_max, tally, |leaf, tally| {
             let (first, count) = leaf_range(leaf);
             prims[first..first + count].iter().any(|p| {
@@ -438,6 +470,34 @@ impl Avx2 {
             let _ = kernel;
             Self()
         }
+    }
+
+    /// Whether the token is there.
+    fn is_some(self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.0.is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// The walk of the eight-wide `tree` by `ray` in the AVX2 kernel, testing leaves with `leaf`:
+    /// `false`, with nothing walked, without the token or the tree.
+    #[inline(always)]
+    fn walk<const ANY: bool, T: Tally, L: wide::LeafTest<T>>(
+        self,
+        tree: Option<&WideTree<8>>,
+        ray: &Ray,
+        t_range: (f32, f32),
+        tally: &mut T,
+        leaf: &mut L,
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(simd), Some(tree)) = (self.0, tree) {
+            kernel::Kernel::<8>::walk::<ANY, T, L>(simd, tree, ray, t_range, tally, leaf);
+            return true;
+        }
+        let _ = (tree, ray, t_range, tally, leaf);
+        false
     }
 
     /// `f()`, compiled with AVX2 enabled where the token is there (everything `f` inlines).
@@ -855,6 +915,7 @@ impl<P: Intersect + Sync + Send> Accelerator for Bvh<P> {
         if let Some((tree, prims, ids)) = &self.others {
             bytes += tree.bytes() + std::mem::size_of_val(prims.as_slice()) + std::mem::size_of_val(ids.as_slice());
             bytes += std::mem::size_of_val(self.other_boxes.as_slice());
+            bytes += self.others8.as_ref().map_or(0, WideTree::bytes);
             primitives += prims.len();
         }
         AccelStats { nodes: self.node_count(), bytes, primitives }
@@ -942,7 +1003,10 @@ mod tests {
                 // tiny sphere in the cluster and a huge one below it, its top 2^28 down.
                 prims.push(Primitive::Sphere(raylume_geometry::Sphere { center: spheres[0].center, radius: 1e-16 }));
                 let (r, below) = (2f32.powi(51), 2f32.powi(28));
-                prims.push(Primitive::Sphere(raylume_geometry::Sphere { center: Vec3A::new(0.0, 0.0, -(r + below)), radius: r }));
+                prims.push(Primitive::Sphere(raylume_geometry::Sphere {
+                    center: Vec3A::new(0.0, 0.0, -(r + below)),
+                    radius: r,
+                }));
             }
             let flat = Bvh::new(prims.clone(), Interval::new(0.0, 0.0));
             let count = prims.len() - 6;
@@ -980,6 +1044,81 @@ mod tests {
             }
             assert!(hits > 400, "the rays meet the spheres ({hits} hits of {n} spheres)");
         }
+    }
+
+    /// Single rays walk the other shapes' eight-wide tree where the kernel is AVX2, packets the
+    /// four-wide one: every single-ray query answers as the four-wide walk, bit for bit (distance,
+    /// point, primitive; occlusion), over spheres, boxes, cones and moving spheres of sizes from 1/100
+    /// to 10 among triangles, with rays from outside, from shapes' surfaces and from inside them, at
+    /// times across the shutter, in ranges with and without a minimum.
+    #[test]
+    fn other_shapes_answer_alike_in_either_tree() {
+        use raylume_geometry::{AaBox, Cone, MovingSphere, Sphere};
+        let mut rng = Pcg32::new(17, 5);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut prims = random_scene(9, 200, 2.0);
+        let mut centres = Vec::new();
+        for k in 0..600 {
+            let c = Vec3A::new(unit(), unit(), unit()) * 24.0 - Vec3A::splat(12.0);
+            let size = 0.01 * 1000f32.powf(unit());
+            centres.push((c, size));
+            prims.push(match k % 4 {
+                0 => Primitive::Sphere(Sphere { center: c, radius: size }),
+                1 => {
+                    Primitive::Box(AaBox { bounds: Aabb::new(c - Vec3A::splat(size), c + Vec3A::splat(size) * unit()) })
+                }
+                2 => Primitive::Cone(Cone {
+                    base: c,
+                    base_radius: size,
+                    apex: c + Vec3A::new(unit(), 1.0, unit()) * size,
+                    apex_radius: size * unit(),
+                }),
+                _ => Primitive::MovingSphere(MovingSphere {
+                    center0: c,
+                    center1: c + Vec3A::new(unit(), unit(), unit()) * size,
+                    radius: size,
+                    time0: 0.0,
+                    time1: 1.0,
+                }),
+            });
+        }
+        let eight = Bvh::new(prims, Interval::new(0.0, 1.0));
+        let Some(tree) = &eight.others8 else {
+            eprintln!("skipped: the kernel is not AVX2 here, and no eight-wide tree of other shapes is built");
+            return;
+        };
+        assert!(tree.node_count() > 10);
+        assert_eq!(eight.validate(), Ok(()));
+        let four = Bvh { others8: None, ..eight.clone() };
+        let (mut hits, mut occluded) = (0, 0);
+        for k in 0..20_000 {
+            let (c, size) = centres[k % centres.len()];
+            let aim = Vec3A::new(unit(), unit(), unit()) * 24.0 - Vec3A::splat(12.0);
+            let origin = match k % 3 {
+                0 => Vec3A::new(unit(), unit(), unit()) * 40.0 - Vec3A::splat(20.0),
+                1 => c + (aim - c).normalize_or(Vec3A::X) * size,
+                _ => c + Vec3A::new(unit(), unit(), unit()) * (0.5 * size),
+            };
+            let mut ray = Ray::new(origin, aim - origin);
+            ray.time = unit();
+            let bits = |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.point.to_array()));
+            // Ranges ending at the closest hit and just short of it as well.
+            let first = four.closest_hit(&ray, Interval::POSITIVE).map_or(1.0, |h| h.hit.t);
+            let short = f32::from_bits(first.to_bits() - 1);
+            for range in
+                [Interval::POSITIVE, Interval::new(0.5, 6.0), Interval::new(0.0, first), Interval::new(0.0, short)]
+            {
+                let expected = bits(four.closest_hit(&ray, range));
+                assert_eq!(bits(eight.closest_hit(&ray, range)), expected, "{ray:?} in {range:?}");
+                hits += expected.is_some_and(|h| h.0 >= 200) as usize;
+            }
+            for t_max in [0.5, 4.0, f32::INFINITY] {
+                let expected = four.occluded(&ray, t_max);
+                assert_eq!(eight.occluded(&ray, t_max), expected, "{ray:?} to {t_max}");
+                occluded += expected as usize;
+            }
+        }
+        assert!(hits > 20_000 && occluded > 10_000, "the rays meet the shapes ({hits} hits, {occluded} occluded)");
     }
 
     /// Rays that miss the box around the triangles skip their walk where other shapes lie outside that
