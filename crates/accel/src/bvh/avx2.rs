@@ -9,17 +9,17 @@
 use glam::{Vec3A, Vec4};
 use pulp::x86::V3;
 use raylume_geometry::{Interval, Ray, gamma};
-use raylume_intersect::{ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
+use raylume_intersect::{Intersect, ShearedRay, TINY_DISTANCE, TINY_TERM, TriangleHit};
 use std::arch::x86_64::{
     __m128, __m256, __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_NEQ_UQ, _CMP_NLT_UQ,
 };
 
 use super::kernel::{BvhKernel, Kernel, Triangles};
 use super::leaf::{AnyCandidateHit, Candidates, Exact, Filter, closest_of_candidates_scalar, exact_out_of_line};
-use super::stream::{Block, Found, FrameGroup, Leaves, PacketQuery, Report};
+use super::stream::{self, Block, Found, FrameGroup, Leaves, PacketQuery, Report};
 use super::triangles::Leaf;
 use super::wide::{Frustum, LeafTest, NodeTest, SlabRay, Stack, WideNode, WideTree, set_bits};
-use crate::Tally;
+use crate::{PrimitiveHit, Tally};
 
 /// The AVX2 kernel: eight-wide trees, their walks compiled with AVX2 enabled.
 impl Kernel<8> for V3 {
@@ -73,6 +73,82 @@ impl<const ANY: bool, T: Tally, L: LeafTest<T>> pulp::NullaryFnOnce for Walk<'_,
     }
 }
 
+/// [`stream::closest_by_shapes`] walking the other shapes' eight-wide tree `tree`, compiled with AVX2
+/// enabled.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn closest_by_shapes<P: Intersect>(
+    simd: V3,
+    frustum: &Frustum,
+    tree: &WideTree<8>,
+    shapes: (&[P], &[u32], &[[f32; 6]]),
+    rays: &[Ray],
+    t_min: f32,
+    t_max: &mut [f32],
+    hits: &mut [Option<PrimitiveHit>],
+) {
+    simd.vectorize(ClosestByShapes { simd, frustum, tree, shapes, rays, t_min, t_max, hits })
+}
+
+/// [`closest_by_shapes`]'s arguments, as a function object whose call is always inlined (see [`Walk`]).
+struct ClosestByShapes<'a, P> {
+    simd: V3,
+    frustum: &'a Frustum,
+    tree: &'a WideTree<8>,
+    shapes: (&'a [P], &'a [u32], &'a [[f32; 6]]),
+    rays: &'a [Ray],
+    t_min: f32,
+    t_max: &'a mut [f32],
+    hits: &'a mut [Option<PrimitiveHit>],
+}
+
+impl<P: Intersect> pulp::NullaryFnOnce for ClosestByShapes<'_, P> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let Self { simd, frustum, tree, shapes, rays, t_min, t_max, hits } = self;
+        stream::closest_by_shapes(frustum, (tree, &Frustum8::new(simd, frustum)), shapes, rays, t_min, t_max, hits)
+    }
+}
+
+/// [`stream::occluded_by_shapes`] walking the other shapes' eight-wide tree `tree`, compiled with AVX2
+/// enabled.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn occluded_by_shapes<P: Intersect>(
+    simd: V3,
+    frustum: &Frustum,
+    tree: &WideTree<8>,
+    prims: &[P],
+    boxes: &[[f32; 6]],
+    rays: &[Ray],
+    t_max: &[f32],
+    occluded: &mut [bool],
+) {
+    simd.vectorize(OccludedByShapes { simd, frustum, tree, prims, boxes, rays, t_max, occluded })
+}
+
+/// [`occluded_by_shapes`]'s arguments, as a function object whose call is always inlined (see [`Walk`]).
+struct OccludedByShapes<'a, P> {
+    simd: V3,
+    frustum: &'a Frustum,
+    tree: &'a WideTree<8>,
+    prims: &'a [P],
+    boxes: &'a [[f32; 6]],
+    rays: &'a [Ray],
+    t_max: &'a [f32],
+    occluded: &'a mut [bool],
+}
+
+impl<P: Intersect> pulp::NullaryFnOnce for OccludedByShapes<'_, P> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let Self { simd, frustum, tree, prims, boxes, rays, t_max, occluded } = self;
+        stream::occluded_by_shapes(frustum, (tree, &Frustum8::new(simd, frustum)), prims, boxes, rays, t_max, occluded)
+    }
+}
+
 /// A packet of rays prepared for the eight-wide box test: [`Frustum`]'s bounds, splatted.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Frustum8 {
@@ -87,7 +163,7 @@ pub(super) struct Frustum8 {
 impl Frustum8 {
     /// The packet `f`, its values splatted to eight lanes.
     #[inline(always)]
-    fn new(simd: V3, f: &Frustum) -> Self {
+    pub fn new(simd: V3, f: &Frustum) -> Self {
         let (avx, negative) = (simd.avx, f.negative);
         let mut g = Self {
             simd,

@@ -672,7 +672,15 @@ impl<P: Intersect> Bvh<P> {
         }
         if let Some((tree, prims, ids)) = &self.others {
             let shapes = (&prims[..], &ids[..], &self.other_boxes[..]);
-            stream::closest_by_shapes(frustum, tree, shapes, rays, t_min, &mut t_max[..n], hits);
+            let t_max = &mut t_max[..n];
+            #[cfg(target_arch = "x86_64")]
+            if let (Some(simd), Some(tree8)) = (self.avx2.0, &self.others8) {
+                avx2::closest_by_shapes(simd, frustum, tree8, shapes, rays, t_min, t_max, hits);
+            } else {
+                stream::closest_by_shapes(frustum, (tree, frustum), shapes, rays, t_min, t_max, hits);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            stream::closest_by_shapes(frustum, (tree, frustum), shapes, rays, t_min, t_max, hits);
         }
         let Some(tris) = tris else { return };
         if self.triangles_node.is_none_or(|node| node.meets_packet(frustum, t_min, reach(stream::largest(&t_max[..n]))))
@@ -718,7 +726,15 @@ impl<P: Intersect> Bvh<P> {
         }
         match &self.others {
             Some((tree, prims, _)) if others_together => {
-                stream::occluded_by_shapes(frustum, tree, prims, &self.other_boxes, rays, t_max, occluded);
+                let boxes = &self.other_boxes;
+                #[cfg(target_arch = "x86_64")]
+                if let (Some(simd), Some(tree8)) = (self.avx2.0, &self.others8) {
+                    avx2::occluded_by_shapes(simd, frustum, tree8, prims, boxes, rays, t_max, occluded);
+                } else {
+                    stream::occluded_by_shapes(frustum, (tree, frustum), prims, boxes, rays, t_max, occluded);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                stream::occluded_by_shapes(frustum, (tree, frustum), prims, boxes, rays, t_max, occluded);
             }
             Some(_) => {
                 for ((ray, o), &t) in rays.iter().zip(occluded).zip(t_max) {

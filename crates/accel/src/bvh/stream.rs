@@ -307,9 +307,10 @@ fn shared_axes(frames: &[ShearedRay], lanes: u32) -> Option<[usize; 3]> {
 /// its box, four at a time, test its shapes as the single-ray query does. The answer is each ray's
 /// own: a shape's hit lies inside its box, which every walk tests conservatively.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn occluded_by_shapes<P: Intersect>(
+#[inline(always)]
+pub(super) fn occluded_by_shapes<P: Intersect, const W: usize>(
     frustum: &Frustum,
-    tree: &WideTree<4>,
+    (tree, nodes): (&WideTree<W>, &impl NodeTest<W>),
     prims: &[P],
     boxes: &[[f32; 6]],
     rays: &[Ray],
@@ -360,7 +361,7 @@ pub(super) fn occluded_by_shapes<P: Intersect>(
         // Below zero once every ray is occluded: the walk ends.
         largest_end.max_element()
     };
-    tree.walk::<true, ()>(frustum, 0.0, start, &mut (), &mut leaf);
+    tree.walk::<true, ()>(nodes, 0.0, start, &mut (), &mut leaf);
 }
 
 /// The closest hit of each ray of a packet among `prims` (the shapes other than triangles, as for
@@ -370,9 +371,10 @@ pub(super) fn occluded_by_shapes<P: Intersect>(
 /// their closest hit that the single-ray walk reaches), four at a time, test its shapes. Each ray gets
 /// the closest of its shapes' hits, ties to the lowest index, as the single-ray query does in any order.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn closest_by_shapes<P: Intersect>(
+#[inline(always)]
+pub(super) fn closest_by_shapes<P: Intersect, const W: usize>(
     frustum: &Frustum,
-    tree: &WideTree<4>,
+    (tree, nodes): (&WideTree<W>, &impl NodeTest<W>),
     (prims, ids, boxes): (&[P], &[u32], &[[f32; 6]]),
     rays: &[Ray],
     t_min: f32,
@@ -420,7 +422,7 @@ pub(super) fn closest_by_shapes<P: Intersect>(
         }
         largest_end.max_element()
     };
-    tree.walk::<false, ()>(frustum, t_min, start, &mut (), &mut leaf);
+    tree.walk::<false, ()>(nodes, t_min, start, &mut (), &mut leaf);
     t_max.copy_from_slice(&ends[..n]);
 }
 
