@@ -2,8 +2,8 @@
 //! collapsed into wide nodes whose children's boxes a ray tests together: eight children in AVX
 //! registers on CPUs with AVX2 ([`BvhKernel::Avx2`]), four in SSE2 registers elsewhere
 //! ([`BvhKernel::Portable`]). Triangles live in their own tree, in leaves of up to eight laid out for
-//! the watertight test; other bounded shapes in a second tree (four-wide, walked by packets, and
-//! eight-wide for single rays where the kernel is AVX2); unbounded ones (planes) outside both.
+//! the watertight test; other bounded shapes in a second tree, of the kernel's width; unbounded ones
+//! (planes) outside both.
 //!
 //! The parts, each using only those listed after it:
 //! - this file: [`Bvh`], its constructor, its invariants ([`Bvh::validate`]) and its [`Accelerator`]
@@ -87,8 +87,9 @@ const PACKET_SPREAD: f64 = 4.0;
 pub struct Bvh<P> {
     triangles: Option<Triangles>,
     others: Option<(WideTree<4>, Vec<P>, Vec<u32>)>,
-    /// Where the kernel is AVX2: the other shapes' tree with eight children to a node, walked by
-    /// single rays (packets walk the four-wide one).
+    /// Where the kernel is AVX2: the other shapes' tree with eight children to a node, which its
+    /// queries walk (the four-wide one above, built from the same binary tree, serves the portable
+    /// kernel, and tells the shapes' order and bounds).
     others8: Option<WideTree<8>>,
     /// The box of each primitive of `others`, in its order, as its tree was built on it
     /// (`[min, max]` by axis): packets of rays test a leaf's box against four rays at a time.
@@ -1062,8 +1063,8 @@ mod tests {
         }
     }
 
-    /// Single rays walk the other shapes' eight-wide tree where the kernel is AVX2, packets the
-    /// four-wide one: every single-ray query answers as the four-wide walk, bit for bit (distance,
+    /// Queries walk the other shapes' eight-wide tree where the kernel is AVX2: every single-ray query
+    /// answers as the four-wide walk, bit for bit (distance,
     /// point, primitive; occlusion), over spheres, boxes, cones and moving spheres of sizes from 1/100
     /// to 10 among triangles, with rays from outside, from shapes' surfaces and from inside them, at
     /// times across the shutter, in ranges with and without a minimum.
