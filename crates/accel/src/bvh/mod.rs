@@ -584,7 +584,9 @@ impl FewRoots {
 /// [beats](PrimitiveHit::beats) it. A sphere whose sizes leave it to the one-sphere routine's f64 path
 /// runs that routine; of the others, the hit is made for the closest root only (ties to the lowest
 /// id): the answer of the spheres tested one by one with the range shrinking to each hit, as a
-/// sphere's root within a smaller range is the same root or none.
+/// sphere's root within a smaller range is the same root or none. (Up to four spheres keep
+/// [`closest_sphere`], on one group's roots: through this function, mount_low's render took 3 % more
+/// instructions.)
 #[inline(always)]
 fn closest_of_spheres<P: Intersect>(
     groups: &[SphereLanes],
