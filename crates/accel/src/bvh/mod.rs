@@ -443,16 +443,10 @@ impl<P: Intersect> Bvh<P> {
             });
             if hit { f32::NEG_INFINITY } else { end }
         };
-        if self.avx2.walk::<true, T, _>(self.others8.as_ref(), ray, (0.0, t_max), tally, &mut leaf) {
-            return hit;
+        if !self.avx2.walk::<true, T, _>(self.others8.as_ref(), ray, (0.0, t_max), tally, &mut leaf) {
+            tree.walk::<true, T>(&BoxRay::new(ray), 0.0, t_max, tally, &mut leaf);
         }
-        tree.any(&BoxRay::new(ray), t_max, tally, |leaf, tally| {
-            let (first, count) = leaf_range(leaf);
-            prims[first..first + count].iter().any(|p| {
-                tally.tested();
-                p.occluded_canonical(ray, t_max)
-            })
-        })
+        hit
     }
 }
 

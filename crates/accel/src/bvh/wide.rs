@@ -746,28 +746,6 @@ impl<const W: usize> WideTree<W> {
             }
         }
     }
-
-    /// Whether any leaf the ray meets within `[0, t_max]` reports a hit (`leaf` returns `true`); the
-    /// nearest boxes are visited first, as shadow rays towards closed meshes meet them first.
-    #[inline(always)]
-    pub fn any<T: Tally>(
-        &self,
-        ray: &impl NodeTest<W>,
-        t_max: f32,
-        tally: &mut T,
-        mut leaf: impl FnMut(u32, &mut T) -> bool,
-    ) -> bool {
-        let mut hit = false;
-        self.walk::<true, T>(ray, 0.0, t_max, tally, &mut |r, t, tally: &mut T| {
-            if leaf(r, tally) {
-                hit = true;
-                f32::NEG_INFINITY
-            } else {
-                t
-            }
-        });
-        hit
-    }
 }
 
 /// [`NodeTest::push`] by scalar code: the children in `mask` but the nearest pushed farthest first.
