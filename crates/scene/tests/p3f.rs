@@ -153,6 +153,11 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "bad.p3f:1:26: expected 'up' not parallel to the view direction (and not too short to give it a side)",
         ),
         (
+            // Parallel in real numbers; the normalised view direction's rounding alone gives a side.
+            "v from 2.1 1.3 1.7 at 0 0 0 up 2.1 1.3 1.7 angle 45 hither 0 resolution 4 4",
+            "bad.p3f:1:32: expected 'up' not parallel to the view direction (and not too short to give it a side)",
+        ),
+        (
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 180 hither 0 resolution 4 4",
             "bad.p3f:1:38: expected an angle in (0, 180) degrees, found '180'",
         ),

@@ -669,7 +669,7 @@ impl<'a, 'f> Parser<'a, 'f> {
                 "expected 'from' and 'at' further apart: their distance, {distance:e}, squares to 0 in single precision"
             );
             Some((at_keyword, message))
-        } else if up.cross(n).normalize_or_zero() == Vec3A::ZERO {
+        } else if up.cross(n).normalize_or_zero() == Vec3A::ZERO || up.cross(dir).length_squared() == 0.0 {
             let message = "expected 'up' not parallel to the view direction (and not too short to give it a side)";
             Some((up_numbers, message.to_owned()))
         } else {
