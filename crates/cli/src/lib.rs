@@ -506,6 +506,9 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     // Everything the flags alone decide is checked before the scene is read.
     let mut render_options = render_options(&args)?;
     check_output(&args.output, true)?;
+    if let Some(dir) = &args.report {
+        report::check(dir)?;
+    }
     let parts = args.tile.is_some() || args.tile_from_env.is_some() || args.samples.is_some();
     if args.scene.as_deref() == Some(Path::new("-")) && (parts || args.checkpoint.is_some() || args.resume.is_some()) {
         return Err(bad_input(

@@ -54,6 +54,27 @@ pub(crate) fn attributes(out: &RenderOutput, seed: u64, spp: u32, options: &Rend
     a
 }
 
+/// Whether the report can go into `dir`, checked before the render (so that a render whose report
+/// cannot be written fails before it writes its image): `dir` is a folder, or a folder can be made
+/// there, and the nearest folder that exists takes new files.
+pub(crate) fn check(dir: &Path) -> Result<(), Failure> {
+    let fail = |message: String| Failure { code: 1, message: format!("--report {}: {message}", dir.display()) };
+    let mut existing = dir;
+    while !existing.exists() {
+        existing = match existing.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+    }
+    if !existing.is_dir() {
+        return Err(fail(format!("'{}' is not a folder", existing.display())));
+    }
+    let probe = existing.join(format!(".raylume-report.{}.probe", std::process::id()));
+    std::fs::File::create(&probe).map_err(|e| fail(format!("cannot write into '{}': {e}", existing.display())))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Writes `dir/error.csv` (one row per pass) and `dir/error.png` (the estimated RMSE against
 /// seconds on log-log axes, with the fitted slope).
 pub(crate) fn write(dir: &Path, rows: &[Row], title: &str) -> Result<(), Failure> {

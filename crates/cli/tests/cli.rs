@@ -91,6 +91,28 @@ fn unwritable_output_exits_1_and_leaves_nothing() {
 }
 
 #[test]
+fn a_report_that_cannot_be_written_fails_before_the_image_is_written() {
+    let dir = temp_dir("unwritable_report");
+    let (out, file) = (dir.join("out.png"), dir.join("a_file"));
+    std::fs::write(&out, b"kept").unwrap();
+    std::fs::write(&file, b"not a folder").unwrap();
+    for report in [file.clone(), file.join("below")] {
+        let run = raylume()
+            .args(["render", "--width", "8", "--height", "8", "--report"])
+            .arg(&report)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("--report") && stderr.contains("is not a folder"), "{stderr}");
+        assert!(!stderr.contains("rays (camera"), "found before the render: {stderr}");
+        assert_eq!(std::fs::read(&out).unwrap(), b"kept");
+    }
+}
+
+#[test]
 fn strict_turns_unknown_tags_into_errors() {
     let dir = temp_dir("strict");
     let scene = dir.join("s.p3f");
