@@ -767,7 +767,7 @@ impl<'a, 'f> Parser<'a, 'f> {
                     let what = format!("vertex index {} of mesh triangle {}", k + 1, f + 1);
                     return Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown())));
                 };
-                // 1-based; non-positive counts back from the end (OBJ style).
+                // 1-based; a negative index counts back from the end, -1 the last (OBJ style); 0 is out of range.
                 let zero_based = if i > 0 { i - 1 } else { nv as i64 + i };
                 if zero_based < 0 || zero_based >= nv as i64 {
                     let what = format!("vertex index {} of mesh triangle {}", k + 1, f + 1);
