@@ -66,6 +66,11 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         RenderOptions { resolution: args.width.zip(args.height), use_env: !args.no_env, ..RenderOptions::default() };
     // Every option is checked before the reference, the longest render, starts.
     RenderOptions { passes: args.passes, ..base.clone() }.validate().map_err(bad_input)?;
+    let counts = if args.time_budgets.is_some() { &[][..] } else { &args.spp_list[..] };
+    let reference_spp = args.reference.is_none().then_some(args.reference_spp);
+    for spp in counts.iter().copied().chain(reference_spp) {
+        RenderOptions { spp: Some(spp), ..base.clone() }.validate().map_err(bad_input)?;
+    }
     std::fs::create_dir_all(&args.output)
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", args.output.display()) })?;
     let render = |spp: u32, seed: u64, sampler: SamplerKind, passes: u32| {

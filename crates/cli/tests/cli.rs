@@ -567,6 +567,27 @@ fn write_pfm(path: &std::path::Path, w: u32, h: u32, pixel: impl Fn(u32) -> [f32
     std::fs::write(path, bytes).unwrap();
 }
 
+/// A sample count beyond the limit, in the list or for the reference, is refused before the
+/// reference is rendered and before the report's folder is made.
+#[test]
+fn converge_refuses_sample_counts_beyond_the_limit_before_rendering() {
+    let dir = temp_dir("converge-spp");
+    for args in [["--spp-list", "1,1000000000"], ["--reference-spp", "1000000000"]] {
+        let report = dir.join("report");
+        let run = raylume()
+            .args(["converge", "--width", "8", "--height", "4", "--sampler", "jittered"])
+            .args(args)
+            .arg("-o")
+            .arg(&report)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("1000000000") && !stderr.contains("rendering the reference"), "{stderr}");
+        assert!(!report.exists());
+    }
+}
+
 #[test]
 fn converge_refuses_references_that_are_not_finite_or_lie_about_their_size() {
     let dir = temp_dir("converge-bad");
