@@ -268,6 +268,8 @@ struct Reader<'n> {
     first_unusable: Option<String>,
     /// Faces of fewer than three corners.
     short_faces: usize,
+    /// Where the first of them is, and what it is.
+    first_short: Option<String>,
     /// Scratch: one face's corners.
     corners: Vec<(u32, Option<u32>)>,
 }
@@ -291,6 +293,7 @@ impl<'n> Reader<'n> {
             faces_without_vertices: 0,
             first_unusable: None,
             short_faces: 0,
+            first_short: None,
             corners: Vec::new(),
         }
     }
@@ -435,6 +438,7 @@ impl<'n> Reader<'n> {
             if self.short_faces == 0 {
                 let corners = if refs.len() == 1 { "corner" } else { "corners" };
                 self.warn(line.number, 1, format!("a face of {} {corners} has no surface: skipped", refs.len()));
+                self.first_short = self.warnings.last().map(|w| format!("line {}: {}", w.line, w.message));
             }
             self.short_faces += 1;
             self.corners = corners;
@@ -586,7 +590,8 @@ impl<'n> Reader<'n> {
                     self.unknown.iter().map(|k| format!("'{}'", shown(&String::from_utf8_lossy(k)))).collect();
                 found.push(format!("unknown keywords {}", words.join(", ")));
             }
-            let hint = self.first_unusable.as_ref().map_or(String::new(), |first| format!("; {first}"));
+            let firsts = [&self.first_short, &self.first_unusable];
+            let hint: String = firsts.into_iter().flatten().map(|first| format!("; {first}")).collect();
             return Err(SceneError::Invalid(format!("{}: no faces (found {}{hint})", self.name, found.join(", "))));
         }
         // Only the vertices that faces use, in their order in the file.

@@ -146,6 +146,12 @@ fn lines_and_points_are_not_faces() {
         error(format!("{square}l 1 2 3 4 1\nl 1 3\n").as_bytes()),
         "m.obj: no faces (found 4 vertices, 2 lines and points (no surface))"
     );
+    // Faces of fewer than three corners alone: the error says where the first one is.
+    assert_eq!(
+        error(format!("{square}f 1 2\nf 3\n").as_bytes()),
+        "m.obj: no faces (found 4 vertices, 2 faces of fewer than three corners; line 5: a face of 2 corners has \
+         no surface: skipped)"
+    );
 }
 
 /// A concave face is covered as drawn, whichever corner it starts at: its notch stays open.
