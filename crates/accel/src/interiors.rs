@@ -129,7 +129,7 @@ impl Interiors {
     /// answered, the ray starts within half the clearance of it, and meets it: the answer of an
     /// accelerator over the whole list (the closest of the sphere's hit and its near shapes', the
     /// lowest index on a tie). `None` where the accelerator must be asked.
-    #[inline]
+    #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray, t_range: Interval, inside: u32) -> Option<PrimitiveHit> {
         let &Inside { sphere, reach2, first, count } = self.sphere(inside)?;
         // A NaN origin is not inside either.
