@@ -162,6 +162,11 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "bad.p3f:1:38: expected an angle in (0, 180) degrees, found '180'",
         ),
         ("accel 7", "bad.p3f:1:7: expected accelerator (0 none, 1 grid, 2 BVH) in 0..=2, found '7'"),
+        (
+            "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 99999999999999999999 4",
+            "bad.p3f:1:61: expected resolution width in 1..=16384, found '99999999999999999999'",
+        ),
+        ("accel 2.5", "bad.p3f:1:7: expected an integer (accelerator (0 none, 1 grid, 2 BVH)), found '2.5'"),
     ];
     for (text, expected) in cases {
         assert_eq!(&err(text), expected, "for input:\n{text}");

@@ -163,8 +163,11 @@ impl<'a, 'f> Parser<'a, 'f> {
         let t = self.token(format_args!("an integer ({what})"))?;
         match t.text.parse::<i64>() {
             Ok(v) if (min..=max).contains(&v) => Ok(v),
-            Ok(_) => Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.shown()))),
-            Err(_) => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown()))),
+            // Digits beyond i64 are an integer too, out of range.
+            Ok(_) | Err(_) if is_digits(t.text) => {
+                Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.shown())))
+            }
+            _ => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown()))),
         }
     }
 
@@ -779,6 +782,12 @@ impl<'a, 'f> Parser<'a, 'f> {
         }
         Ok(Shape::Mesh { vertices, triangles, normals: Vec::new() })
     }
+}
+
+/// Whether `text` is a whole number in decimal digits, with an optional sign.
+fn is_digits(text: &str) -> bool {
+    let digits = text.strip_prefix(['+', '-']).unwrap_or(text);
+    !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit())
 }
 
 /// Three points of the plane `n · x + d = 0` whose winding gives back the normal's direction, if
