@@ -196,6 +196,25 @@ fn unknown_tags_warn_and_strict_makes_them_errors() {
     assert!(e.starts_with("w.p3f:9:1: unknown tag 'zz'"), "{e}");
 }
 
+/// A negative colour component is kept as given (it takes light away), with a warning at its number;
+/// `--strict` refuses it.
+#[test]
+fn negative_colours_warn_at_their_numbers() {
+    let text = format!("bclr 0.1 -0.2 0.3\n{HEADER}l 1 1 1 1 1 -1\nf 1 1 1 1 1 1 1 1 1 0 1\ns 0 0 0 1\n");
+    let loaded = parse(&text, "c.p3f", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = loaded.warnings.iter().map(ToString::to_string).collect();
+    assert_eq!(
+        shown,
+        [
+            "c.p3f:1:10: warning: background colour g is negative (-0.2): it takes light away",
+            "c.p3f:9:13: warning: light colour b is negative (-1): it takes light away",
+        ]
+    );
+    assert_eq!(loaded.scene.background.y, -0.2);
+    let e = parse(&text, "c.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err().to_string();
+    assert!(e.starts_with("c.p3f:1:10: background colour g is negative"), "{e}");
+}
+
 /// Triangles whose vertices are collinear once in f32 are never hit (the accelerators leave them
 /// out): the loader says so, naming the entity, and `--strict` refuses the file.
 #[test]

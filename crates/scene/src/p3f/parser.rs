@@ -151,11 +151,18 @@ impl<'a, 'f> Parser<'a, 'f> {
         Ok(v)
     }
 
+    /// A colour: three numbers. A negative one is kept, with a warning: it takes light away.
     fn color(&mut self, what: impl Display) -> Result<Vec3, SceneError> {
-        let r = self.number(format_args!("{what} r"))?;
-        let g = self.number(format_args!("{what} g"))?;
-        let b = self.number(format_args!("{what} b"))?;
-        Ok(Vec3::new(r, g, b))
+        let mut rgb = [0.0; 3];
+        for (value, channel) in rgb.iter_mut().zip(["r", "g", "b"]) {
+            let t = self.lex.peek();
+            *value = self.number(format_args!("{what} {channel}"))?;
+            if let Some(t) = t.filter(|_| *value < 0.0) {
+                let message = format!("{what} {channel} is negative ({}): it takes light away", t.shown());
+                self.warn(&t, message)?;
+            }
+        }
+        Ok(Vec3::from_array(rgb))
     }
 
     /// A whole number in `min..=max`.
