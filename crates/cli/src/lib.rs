@@ -937,19 +937,15 @@ fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The warning for a mesh read from `path` with triangles that are never hit ([`raylume_scene::Shape::never_hit`]).
 /// The OBJ mesh that `render --mesh` and `bench --mesh` frame, with what was skipped in it (an error
 /// under `strict`). A mesh with no area at all is refused: nothing of it would be seen.
 fn load_mesh(path: &Path, strict: bool) -> Result<(raylume_scene::Shape, Vec<raylume_scene::Warning>), Failure> {
-    let (mesh, mut warnings) = raylume_scene::obj::load_with_warnings(path).map_err(bad_input)?;
+    let (mesh, warnings) = raylume_scene::obj::load_with_warnings(path).map_err(bad_input)?;
     if mesh.has_no_area() {
         return Err(bad_input(format!(
             "{}: no face of the mesh has an area (its vertices are collinear in f32): nothing to render",
             path.display()
         )));
-    }
-    if let Some(message) = mesh.never_hit() {
-        warnings.push(raylume_scene::Warning { file: path.display().to_string(), line: 0, column: 0, message });
     }
     if let Some(first) = warnings.first().filter(|_| strict) {
         let at = if first.line == 0 {

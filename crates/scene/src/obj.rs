@@ -257,6 +257,8 @@ struct Reader<'n> {
     /// Triangles, as indices into `positions`, and their corners' normals where the face gave them.
     triangles: Vec<[u32; 3]>,
     corner_normals: Vec<Option<[Vec3A; 3]>>,
+    /// The line of each triangle's face.
+    triangle_lines: Vec<u32>,
     warnings: Vec<Warning>,
     lines_and_points: usize,
     free_form: bool,
@@ -285,6 +287,7 @@ impl<'n> Reader<'n> {
             unusable_normals: Vec::new(),
             triangles: Vec::new(),
             corner_normals: Vec::new(),
+            triangle_lines: Vec::new(),
             warnings: Vec::new(),
             lines_and_points: 0,
             free_form: false,
@@ -508,6 +511,7 @@ impl<'n> Reader<'n> {
                 self.corner_normals.push(smooth.then(|| [normal_of(a), normal_of(b), normal_of(c)]));
             }
         }
+        self.triangle_lines.resize(self.triangles.len(), line.number);
         self.corners = corners;
         Ok(())
     }
@@ -608,6 +612,21 @@ impl<'n> Reader<'n> {
         }
         for i in self.triangles.iter_mut().flatten() {
             *i = index[*i as usize];
+        }
+        // Triangles without an area in f32 are never hit: where the first one's face is, and how many.
+        let flat = |t: &&[u32; 3]| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            !raylume_geometry::Triangle::new(a, b, c).has_plane()
+        };
+        if let Some(first) = self.triangles.iter().position(|t| flat(&t)) {
+            let (count, total) = (self.triangles.iter().filter(flat).count(), self.triangles.len());
+            let mut message = "this face's vertices are collinear in f32 (no area): it is never hit".to_owned();
+            match count - 1 {
+                0 => {}
+                1 => message += &format!(", nor is one more of the mesh's {total} triangles"),
+                more => message += &format!(", nor are {more} more of the mesh's {total} triangles"),
+            }
+            self.warn(self.triangle_lines[first], 1, message);
         }
         let normals = if self.corner_normals.iter().any(Option::is_some) {
             let face = |t: &[u32; 3]| {

@@ -154,6 +154,23 @@ fn lines_and_points_are_not_faces() {
     );
 }
 
+/// A face whose vertices are collinear in f32 is never hit: the warning is at the first such face, and
+/// counts the others.
+#[test]
+fn faces_without_area_are_reported_at_the_first() {
+    let square = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\n";
+    assert_eq!(warnings_of(format!("{square}f 1 2 3\n").as_bytes()), Vec::<String>::new());
+    assert_eq!(
+        warnings_of(format!("{square}f 1 2 3\n# a comment\nf 1 2 4\nf 1 1 1\nf 2 3 4\n").as_bytes()),
+        ["m.obj:7:1: warning: this face's vertices are collinear in f32 (no area): it is never hit, nor is one more \
+          of the mesh's 4 triangles"]
+    );
+    assert_eq!(
+        warnings_of(format!("{square}f 2 3 4\nf 3 3 3\n").as_bytes()),
+        ["m.obj:6:1: warning: this face's vertices are collinear in f32 (no area): it is never hit"]
+    );
+}
+
 /// A concave face is covered as drawn, whichever corner it starts at: its notch stays open.
 #[test]
 fn concave_faces_keep_their_notches() {
