@@ -215,6 +215,20 @@ fn negative_colours_warn_at_their_numbers() {
     assert!(e.starts_with("c.p3f:1:10: background colour g is negative"), "{e}");
 }
 
+/// A box whose corners meet on two axes or more (a segment or a point) has no area: skipped with a
+/// warning at its tag. Flat on one axis, it is a rectangle, and kept.
+#[test]
+fn boxes_without_area_are_skipped_with_a_warning() {
+    let text = format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\nbox 1 1 1 1 1 1\nbox 0 0 0 1 0 0\nbox 0 0 0 1 1 0\n");
+    let loaded = parse(&text, "b.p3f", &LoadOptions::default()).unwrap();
+    let shown: Vec<String> = loaded.warnings.iter().map(ToString::to_string).collect();
+    let warning = "warning: a box whose corners meet on two axes or more has no area: it is skipped";
+    assert_eq!(shown, [format!("b.p3f:9:1: {warning}"), format!("b.p3f:10:1: {warning}")]);
+    assert_eq!(loaded.scene.objects.len(), 1, "the rectangle is kept");
+    let e = parse(&text, "b.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err().to_string();
+    assert!(e.starts_with("b.p3f:9:1: a box whose corners meet"), "{e}");
+}
+
 /// Triangles whose vertices are collinear once in f32 are never hit (the accelerators leave them
 /// out): the loader says so, naming the entity, and `--strict` refuses the file.
 #[test]

@@ -311,7 +311,17 @@ impl<'a, 'f> Parser<'a, 'f> {
                 }
                 let a = self.vec3("box corner")?;
                 let b = self.vec3("box opposite corner")?;
-                Entity::Object(Shape::Box { min: a.min(b), max: a.max(b) })
+                let (min, max) = (a.min(b), a.max(b));
+                // Flat on one axis, a box is a rectangle; on two or three, it has no area.
+                if (max - min).cmpeq(Vec3A::ZERO).bitmask().count_ones() >= 2 {
+                    self.warn(
+                        tag,
+                        "a box whose corners meet on two axes or more has no area: it is skipped".to_owned(),
+                    )?;
+                    Entity::Nothing
+                } else {
+                    Entity::Object(Shape::Box { min, max })
+                }
             }
             "p" => {
                 let n = self.count("polygon vertex count", 3, 3)?;
