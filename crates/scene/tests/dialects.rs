@@ -442,13 +442,20 @@ fn the_library_renders_a_cubemap_scene_with_default_options() {
 fn what_an_obj_skips_is_warned_about_in_the_scene() {
     let dir = std::env::temp_dir().join(format!("raylume-obj-warnings-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("m.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.join("m.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\nf 1 2 3\nf 1 2 2\n").unwrap();
     let text = format!("{CAMERA}f 1 1 1 1 0 1 0 0\nobj m.obj\n");
     let options = LoadOptions { base_dir: Some(dir.clone()), ..LoadOptions::default() };
     let l = parse(&text, "o.p3f", &options).unwrap();
     let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
     let obj = dir.join("m.obj").display().to_string();
-    assert_eq!(shown, [format!("{obj}:4:1: warning: a line (l) has no surface: skipped")]);
+    // A face without area is said once, at its line in the OBJ file.
+    assert_eq!(
+        shown,
+        [
+            format!("{obj}:4:1: warning: a line (l) has no surface: skipped"),
+            format!("{obj}:6:1: warning: this face's vertices are collinear in f32 (no area): it is never hit"),
+        ]
+    );
     assert_eq!(kinds(&l.scene), ["mesh"]);
     let strict = LoadOptions { strict: true, ..options };
     let e = parse(&text, "o.p3f", &strict).unwrap_err().to_string();

@@ -231,7 +231,8 @@ impl<'a, 'f> Parser<'a, 'f> {
             match self.entity(&tag, &mut parts)? {
                 Entity::Nothing => {}
                 Entity::Object(shape) => {
-                    if let Some(message) = shape.never_hit() {
+                    // An OBJ file's reader names its faces without area at their lines.
+                    if let Some(message) = shape.never_hit().filter(|_| tag.text != "obj") {
                         self.warn(&tag, message)?;
                     }
                     let material = parts.materials.len() as u32 - 1;
