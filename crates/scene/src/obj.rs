@@ -614,12 +614,12 @@ impl<'n> Reader<'n> {
             *i = index[*i as usize];
         }
         // Triangles without an area in f32 are never hit: where the first one's face is, and how many.
-        let flat = |t: &&[u32; 3]| {
+        let mut flat = self.triangles.iter().enumerate().filter(|(_, t)| {
             let [a, b, c] = t.map(|i| vertices[i as usize]);
             !raylume_geometry::Triangle::new(a, b, c).has_plane()
-        };
-        if let Some(first) = self.triangles.iter().position(|t| flat(&t)) {
-            let (count, total) = (self.triangles.iter().filter(flat).count(), self.triangles.len());
+        });
+        if let Some((first, _)) = flat.next() {
+            let (count, total) = (1 + flat.count(), self.triangles.len());
             let mut message = "this face's vertices are collinear in f32 (no area): it is never hit".to_owned();
             match count - 1 {
                 0 => {}
