@@ -11,7 +11,8 @@ use crate::{Failure, SamplerArg, bad_input};
 
 #[derive(clap::Args)]
 pub struct ConvergeArgs {
-    /// The p3f scene (`-`: read from standard input); without it, the embedded default scene.
+    /// The p3f or NFF scene (`-`: read from standard input; a .obj mesh is framed by an automatic
+    /// camera and light); without it, the embedded default scene.
     scene: Option<PathBuf>,
     /// A reference image (.pfm or .exr, linear) instead of rendering one.
     #[arg(long)]
@@ -48,14 +49,23 @@ pub struct ConvergeArgs {
 
 pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     let options = p3f::LoadOptions { ignore_env: args.no_env, ..Default::default() };
-    let loaded = match &args.scene {
-        Some(path) => crate::load_scene(path, &options)?,
-        None => p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(crate::load_failure)?,
+    let (scene, warnings) = match &args.scene {
+        Some(path) if crate::is_obj(path) => {
+            let (mesh, warnings) = crate::load_mesh(path, false)?;
+            (raylume_scene::procedural::mesh_view(mesh, 512, 512), warnings)
+        }
+        Some(path) => {
+            let loaded = crate::load_scene(path, &options)?;
+            (loaded.scene, loaded.warnings)
+        }
+        None => {
+            let loaded = p3f::parse(DEFAULT_SCENE, "<default scene>", &options).map_err(crate::load_failure)?;
+            (loaded.scene, loaded.warnings)
+        }
     };
-    for w in &loaded.warnings {
+    for w in &warnings {
         eprintln!("{w}");
     }
-    let scene = loaded.scene;
     if args.spp_list.is_empty() || args.spp_list.contains(&0) || args.reference_spp == 0 {
         return Err(bad_input("sample counts must be at least 1"));
     }

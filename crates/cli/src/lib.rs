@@ -73,7 +73,8 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// The p3f scene (`-`: read from standard input); without it, the embedded default scene.
+    /// The p3f or NFF scene (`-`: read from standard input; a .obj file is rendered as `--mesh`
+    /// renders it); without it, the embedded default scene.
     scene: Option<PathBuf>,
     /// Render an OBJ mesh instead, framed by an automatic camera and light.
     #[arg(long, conflicts_with = "scene")]
@@ -215,7 +216,8 @@ struct RenderArgs {
 
 #[derive(clap::Args)]
 struct BenchCli {
-    /// A p3f scene (`-`: read from standard input; or give --mesh or --gen).
+    /// A p3f or NFF scene (`-`: read from standard input; a .obj file is taken as `--mesh`; or give
+    /// --mesh or --gen).
     scene: Option<PathBuf>,
     /// An OBJ mesh, framed by an automatic camera.
     #[arg(long, conflicts_with = "scene")]
@@ -344,11 +346,21 @@ pub fn run() -> ExitCode {
     });
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render(*args),
+        Command::Render(mut args) => {
+            if args.mesh.is_none() && args.scene.as_deref().is_some_and(is_obj) {
+                args.mesh = args.scene.take();
+            }
+            render(*args)
+        }
         Command::Compare { a, b } => compare(&a, &b),
         Command::Merge { output, parts } => farm::merge(&output, &parts),
         Command::Gen { name, size } => generate(&name, size),
-        Command::Bench(args) => bench_command(args),
+        Command::Bench(mut args) => {
+            if args.mesh.is_none() && args.scene.as_deref().is_some_and(is_obj) {
+                args.mesh = args.scene.take();
+            }
+            bench_command(args)
+        }
         Command::Converge(args) => converge::run(args),
     };
     match result {
@@ -937,9 +949,18 @@ fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Whether `path` names a Wavefront OBJ file (by its extension, in any case): given as a scene, it
+/// is rendered as `--mesh` renders it, framed by an automatic camera and light.
+pub(crate) fn is_obj(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+}
+
 /// The OBJ mesh that `render --mesh` and `bench --mesh` frame, with what was skipped in it (an error
 /// under `strict`). A mesh with no area at all is refused: nothing of it would be seen.
-fn load_mesh(path: &Path, strict: bool) -> Result<(raylume_scene::Shape, Vec<raylume_scene::Warning>), Failure> {
+pub(crate) fn load_mesh(
+    path: &Path,
+    strict: bool,
+) -> Result<(raylume_scene::Shape, Vec<raylume_scene::Warning>), Failure> {
     let (mesh, warnings) = raylume_scene::obj::load_with_warnings(path).map_err(bad_input)?;
     if mesh.has_no_area() {
         return Err(bad_input(format!(

@@ -830,3 +830,47 @@ fn gen_into_a_closed_pipe_ends_quietly() {
     assert_eq!(run.status.code(), Some(0), "{}", String::from_utf8_lossy(&run.stderr));
     assert_eq!(String::from_utf8_lossy(&run.stderr), "");
 }
+
+/// An OBJ file given where a scene goes is a mesh, framed as `--mesh` frames it, in `render`,
+/// `bench` and `converge` alike; its extension is read in any case.
+#[test]
+fn an_obj_file_given_as_the_scene_renders_as_a_mesh() {
+    let dir = temp_dir("obj-as-scene");
+    let mesh = dir.join("Tetra.OBJ");
+    std::fs::write(&mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n").unwrap();
+    let render = |args: &[&str], out: &str| {
+        let run = raylume()
+            .arg("render")
+            .args(args)
+            .arg(&mesh)
+            .args(["--width", "48", "--height", "32", "--threads", "1", "-o"])
+            .arg(dir.join(out))
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        std::fs::read(dir.join(out)).unwrap()
+    };
+    let as_scene = render(&[], "scene.pfm");
+    let as_mesh = render(&["--mesh"], "mesh.pfm");
+    assert_eq!(as_scene, as_mesh);
+    // The mesh is in view: the image is not one colour.
+    let pixels: Vec<&[u8]> = as_scene["PF\n48 32\n-1.0\n".len()..].chunks(12).collect();
+    assert!(pixels.iter().any(|p| *p != pixels[0]), "the mesh is not in the picture");
+
+    let bench = raylume().arg("bench").arg(&mesh).args(["--count", "256", "--threads", "1"]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&bench.stdout);
+    assert!(bench.status.success(), "{}", String::from_utf8_lossy(&bench.stderr));
+    assert!(stdout.contains("primitives          4"), "{stdout}");
+
+    let report = dir.join("report");
+    let converge = raylume()
+        .arg("converge")
+        .arg(&mesh)
+        .args(["--width", "16", "--height", "12", "--reference-spp", "4", "--spp-list", "1", "-o"])
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(converge.status.success(), "{}", String::from_utf8_lossy(&converge.stderr));
+    assert!(report.join("convergence.csv").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
