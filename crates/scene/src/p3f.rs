@@ -29,6 +29,7 @@ use std::path::{Path, PathBuf};
 
 use crate::{Scene, SceneError, Warning};
 
+mod foreign;
 mod lexer;
 pub(crate) use lexer::shown;
 mod parser;
@@ -182,8 +183,22 @@ fn position_of(bytes: &[u8], at: usize) -> (u32, u32) {
 
 /// Parses scene text of any dialect; `file` names it in messages (and its extension, `.nff`, tells
 /// the dialect where the content does not).
+///
+/// A file of another format (PLY, STL, an OBJ mesh, pbrt, glTF, USD, XML) is an error at its first
+/// line that names the format, not a run of warnings about unknown tags.
+///
+/// ```
+/// use raylume_scene::p3f::{parse, LoadOptions};
+/// let e = parse("ply\nformat ascii 1.0\n", "bunny.ply", &LoadOptions::default()).unwrap_err();
+/// assert!(e.to_string().starts_with("bunny.ply:1:1: expected a p3f or NFF scene, found a PLY mesh"));
+/// ```
 pub fn parse(text: &str, file: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
-    parser::Parser::new(text.strip_prefix('\u{feff}').unwrap_or(text), file, options).scene()
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    if let Some((format, line, column, instead)) = foreign::foreign_format(text) {
+        let message = format!("expected a p3f or NFF scene, found {format} ({instead})");
+        return Err(SceneError::Syntax { file: file.to_owned(), line, column, message, warnings: Vec::new() });
+    }
+    parser::Parser::new(text, file, options).scene()
 }
 
 /// The folders a cubemap named in a scene is looked for in: the scene's folder (else the current
