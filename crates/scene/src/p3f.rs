@@ -171,11 +171,12 @@ pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Line and column (in characters of the valid text before it) of byte `at`.
+/// Line and column (in characters of the valid text before it) of byte `at`; lines end as the
+/// lexer ends them (LF, CR LF or a lone CR).
 fn position_of(bytes: &[u8], at: usize) -> (u32, u32) {
     let before = &bytes[..at];
-    let line = before.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
-    let start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let line = (0..at).filter(|&i| lexer::ends_line(bytes, i)).count() as u32 + 1;
+    let start = (0..at).rev().find(|&i| lexer::ends_line(bytes, i)).map_or(0, |i| i + 1);
     let column = String::from_utf8_lossy(&before[start..]).chars().count() as u32 + 1;
     (line, column)
 }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use raylume_geometry::{Vec3, Vec3A};
 use raylume_render::{RenderOptions, RenderScene};
-use raylume_scene::p3f::{Dialect, LoadOptions, Loaded, load, parse};
+use raylume_scene::p3f::{Dialect, LoadOptions, Loaded, load, parse, parse_bytes};
 use raylume_scene::{AccelHint, LightShape, Scene, SceneError, Shape};
 
 fn example(name: &str) -> PathBuf {
@@ -383,6 +383,25 @@ fn stray_numbers_and_unknown_lines_with_their_numbers_are_skipped() {
         ]
     );
     assert_eq!(l.scene.objects.len(), 2);
+}
+
+#[test]
+fn lines_ended_by_a_lone_carriage_return_are_lines() {
+    // Classic Mac OS text: a comment ends at its CR, and free text skips its own line alone.
+    let text = "# the floor and a ball\rv\rfrom 0 0 5\rat 0 0 0\rup 0 1 0\rangle 45\rhither 0\rresolution 8 8\r\
+                Floor\rf 1 1 1 1 0 1 0 0\rp 3\r-1 -1 0\r1 -1 0\r0 1 0\rs 0 0 0 1 9\r";
+    let l = parse(text, "mac.nff", &LoadOptions::default()).unwrap();
+    assert_eq!(kinds(&l.scene), ["p", "s"]);
+    let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        shown,
+        [
+            "mac.nff:9:1: warning: unknown tag 'Floor': skipped 'Floor'",
+            "mac.nff:15:11: warning: unexpected number '9' where a tag was expected, skipped",
+        ]
+    );
+    let e = parse_bytes(b"v\rfrom 0 0 \xff", "mac.nff", &LoadOptions { strict: true, ..Default::default() });
+    assert_eq!(e.unwrap_err().to_string(), "mac.nff:2:10: byte 0xFF is not UTF-8");
 }
 
 #[test]
