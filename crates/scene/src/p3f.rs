@@ -102,7 +102,8 @@ impl Loaded {
 
 /// Reads and parses a scene file of any dialect (a regular file or a pipe).
 ///
-/// Text that is not UTF-8 is read as Latin-1, with a warning naming the first byte that is not.
+/// UTF-16 text is read as such, and text that is not UTF-8 as Latin-1, with a warning (naming, for
+/// Latin-1, the first byte that is not UTF-8).
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let io = |source: std::io::Error| SceneError::Io { path: path.to_owned(), source };
@@ -114,9 +115,9 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Sce
     parse_bytes(&bytes, &path.display().to_string(), &options)
 }
 
-/// Parses the bytes of a scene file of any dialect ([`parse`] once decoded): text that is not
-/// UTF-8 is read as Latin-1, with a warning naming the first byte that is not (an error under
-/// `strict`).
+/// Parses the bytes of a scene file of any dialect ([`parse`] once decoded): UTF-16 text (with or
+/// without a byte-order mark) is read as UTF-16 with a warning, and text that is not UTF-8 is read
+/// as Latin-1 with a warning naming the first byte that is not (each an error under `strict`).
 ///
 /// ```
 /// use raylume_scene::p3f::{parse_bytes, LoadOptions};
@@ -125,6 +126,23 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Sce
 /// assert_eq!(loaded.warnings[0].to_string(), "latin1.p3f:1:68: warning: byte 0xFC is not UTF-8: the file is read as Latin-1");
 /// ```
 pub fn parse_bytes(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
+    if let Some((text, order)) = utf16_text(bytes) {
+        let message = format!("the file is UTF-16 ({order}) text, not ASCII or UTF-8");
+        if options.strict {
+            return Err(SceneError::Syntax {
+                file: name.to_owned(),
+                line: 1,
+                column: 1,
+                message,
+                warnings: Vec::new(),
+            });
+        }
+        let message = format!("{message}: it is read as UTF-16");
+        let warning = Warning { file: name.to_owned(), line: 1, column: 1, message };
+        let mut loaded = parse(&text, name, options).map_err(|e| e.with_earlier_warnings(vec![warning.clone()]))?;
+        loaded.warnings.insert(0, warning);
+        return Ok(loaded);
+    }
     match std::str::from_utf8(bytes) {
         Ok(text) => parse(text, name, options),
         Err(e) => {
@@ -169,6 +187,35 @@ pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
         return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("more than {cap} bytes")));
     }
     Ok(bytes)
+}
+
+/// The text of UTF-16 bytes (as Windows Notepad's "Unicode" or PowerShell's `>` write a file) and
+/// their byte order, told by a byte-order mark or, without one, by the zero bytes that ASCII
+/// characters have in one half of each pair; `None` for any other bytes (a scene's text never holds
+/// a zero byte). A lone last byte or an unpaired surrogate reads as U+FFFD.
+fn utf16_text(bytes: &[u8]) -> Option<(String, &'static str)> {
+    let (body, little) = if let Some(body) = bytes.strip_prefix(b"\xFF\xFE") {
+        (body, true)
+    } else if let Some(body) = bytes.strip_prefix(b"\xFE\xFF") {
+        (body, false)
+    } else {
+        let head = &bytes[..bytes.len().min(64) & !1];
+        let zero_at = |parity: usize| head.iter().enumerate().all(|(i, &b)| (b == 0) == (i % 2 == parity));
+        match () {
+            _ if head.is_empty() => return None,
+            _ if zero_at(1) => (bytes, true),
+            _ if zero_at(0) => (bytes, false),
+            _ => return None,
+        }
+    };
+    let units = body
+        .chunks_exact(2)
+        .map(|p| if little { u16::from_le_bytes([p[0], p[1]]) } else { u16::from_be_bytes([p[0], p[1]]) });
+    let mut text: String = char::decode_utf16(units).map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER)).collect();
+    if body.len() % 2 == 1 {
+        text.push(char::REPLACEMENT_CHARACTER);
+    }
+    Some((text, if little { "little-endian" } else { "big-endian" }))
 }
 
 /// Line and column (in characters of the valid text before it) of byte `at`; lines end as the

@@ -428,6 +428,37 @@ fn text_that_is_not_utf8_is_read_as_latin1_with_a_warning() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn utf16_text_is_read_as_such_with_a_warning() {
+    let text = format!("{CAMERA}f 1 1 1 1 0 1 0 0\r\ns 0 0 0 1 # caf\u{e9}\r\n");
+    let le: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    let be: Vec<u8> = text.encode_utf16().flat_map(u16::to_be_bytes).collect();
+    let cases = [
+        ([&b"\xFF\xFE"[..], &le].concat(), "little-endian"),
+        ([&b"\xFE\xFF"[..], &be].concat(), "big-endian"),
+        (le.clone(), "little-endian"),
+        (be.clone(), "big-endian"),
+    ];
+    for (bytes, order) in &cases {
+        let l = parse_bytes(bytes, "u.p3f", &LoadOptions::default()).unwrap();
+        assert_eq!(kinds(&l.scene), ["s"], "{order}");
+        let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+        assert_eq!(
+            shown,
+            [format!(
+                "u.p3f:1:1: warning: the file is UTF-16 ({order}) text, not ASCII or UTF-8: it is read as UTF-16"
+            )]
+        );
+        let e = parse_bytes(bytes, "u.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err();
+        assert_eq!(e.to_string(), format!("u.p3f:1:1: the file is UTF-16 ({order}) text, not ASCII or UTF-8"));
+    }
+    // Its errors have their positions in the decoded text, after the warning.
+    let bad: Vec<u8> = "v from 0 0 x".encode_utf16().flat_map(u16::to_le_bytes).collect();
+    let e = parse_bytes(&[&b"\xFF\xFE"[..], &bad].concat(), "u.p3f", &LoadOptions::default()).unwrap_err();
+    assert_eq!(e.to_string(), "u.p3f:1:12: expected a number (from z), found 'x'");
+    assert_eq!(e.warnings().len(), 1);
+}
+
 fn shared() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared");
     if dir.is_dir() {
