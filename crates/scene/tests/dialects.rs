@@ -238,6 +238,10 @@ fn malformed_variants_say_what_was_expected() {
             "x.p3f:2:1: expected 3 (x y z), 6 (x y z r g b) or 7 (x y z r g b size) numbers after 'l', found 4 numbers",
         ),
         (
+            format!("{CAMERA}l 4\n"),
+            "x.p3f:2:1: expected 3 (x y z), 6 (x y z r g b) or 7 (x y z r g b size) numbers after 'l', found 1 number",
+        ),
+        (
             format!("{CAMERA}al 0 0 4 0 0 -1 1 1 1\n"),
             "x.p3f:2:1: expected 8 (x y z ax ay az w h) or 11 (… r g b) numbers after 'al', found 9 numbers",
         ),

@@ -206,8 +206,12 @@ impl<'a, 'f> Parser<'a, 'f> {
         if allowed.contains(&n) {
             return Ok(n);
         }
-        let found = if n == limit { format!("more than {}", limit - 1) } else { n.to_string() };
-        Err(self.error(tag, format!("expected {forms} after '{}', found {found} numbers", tag.text)))
+        let found = match n {
+            1 => "1 number".to_owned(),
+            n if n == limit => format!("more than {} numbers", limit - 1),
+            n => format!("{n} numbers"),
+        };
+        Err(self.error(tag, format!("expected {forms} after '{}', found {found}", tag.text)))
     }
 
     pub fn scene(mut self) -> Result<Loaded, SceneError> {
