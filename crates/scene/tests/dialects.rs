@@ -463,6 +463,26 @@ fn utf16_text_is_read_as_such_with_a_warning() {
     assert_eq!(e.warnings().len(), 1);
 }
 
+#[test]
+fn a_binary_file_is_refused_at_once_saying_what_it_holds() {
+    let cases: [(&[u8], &str); 5] = [
+        (b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR", "a PNG image"),
+        (b"\x1f\x8b\x08\x08\0\0\0\0\0\x03s.nff\0", "gzip-compressed data (decompress it first)"),
+        (b"\xff\xd8\xff\xe0\0\x10JFIF\0", "a JPEG image"),
+        (&[0; 40], "binary data (byte 0x00, a control character, in its first 16 bytes)"),
+        (b"v from 0\x01\x02 0 5", "binary data (byte 0x01, a control character, in its first 16 bytes)"),
+    ];
+    for (bytes, kind) in cases {
+        let e = parse_bytes(bytes, "b.nff", &LoadOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), format!("b.nff:1:1: expected the text of a scene, found {kind}"));
+        assert!(e.warnings().is_empty(), "{:?}", e.warnings());
+    }
+    // Text with a control character further on is read, with what it cannot read skipped.
+    let late = format!("{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1\n\0\0\0\n");
+    let l = parse_bytes(late.as_bytes(), "late.p3f", &LoadOptions::default()).unwrap();
+    assert_eq!((kinds(&l.scene), l.warnings.len()), (vec!["s"], 1));
+}
+
 fn shared() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared");
     if dir.is_dir() {
