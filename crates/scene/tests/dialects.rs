@@ -327,7 +327,7 @@ fn warnings_found_before_a_fatal_error_come_with_it() {
 fn shapes_without_a_surface_are_skipped_with_a_warning() {
     let text = format!(
         "{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1e-50\ns 0 0 0 0e5\nsm 0 0 0 1 0 0 0 0 1\nc 0 0 0 0 0 1 0 -0\nc\n1 2 3 1\n1 2 3 0.5\n\
-         s 1 1 1 1\n"
+         mesh 3 0\n0 0 0\n1 0 0\n0 1 0\ns 1 1 1 1\n"
     );
     let l = parse(&text, "d.p3f", &LoadOptions::default()).unwrap();
     let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
@@ -340,6 +340,7 @@ fn shapes_without_a_surface_are_skipped_with_a_warning() {
             "d.p3f:5:16: warning: a moving sphere radius of '0' leaves no surface: the sphere is skipped",
             "d.p3f:6:1: warning: a cone whose radii are both 0 has no surface: skipped",
             "d.p3f:7:1: warning: a cone whose base and apex are one point has no surface: skipped",
+            "d.p3f:10:8: warning: a mesh of 0 triangles has no surface: skipped",
         ]
     );
     assert_eq!(kinds(&l.scene), ["s"], "only the last sphere has a surface");
