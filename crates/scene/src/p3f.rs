@@ -194,15 +194,16 @@ pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
 }
 
 /// What a file that is not text holds, told by its first bytes: the images raylume writes and
-/// reads, compressed data, or any other bytes with a control character (not whitespace) among
+/// reads, compressed data, a binary glTF scene, or any other bytes with a control character (not whitespace) among
 /// their first 16, which text never has; `None` for text, UTF-16 text included.
 fn binary_kind(bytes: &[u8]) -> Option<String> {
-    const SIGNATURES: [(&[u8], &str); 5] = [
+    const SIGNATURES: [(&[u8], &str); 6] = [
         (b"\x89PNG", "a PNG image"),
         (b"\xFF\xD8\xFF", "a JPEG image"),
         (b"\x76\x2F\x31\x01", "an OpenEXR image"),
         (b"\x1F\x8B", "gzip-compressed data (decompress it first)"),
         (b"PK\x03\x04", "a zip archive (extract the scene first)"),
+        (b"glTF", "a binary glTF scene"),
     ];
     if let Some((_, kind)) = SIGNATURES.iter().find(|(magic, _)| bytes.starts_with(magic)) {
         return Some((*kind).to_owned());

@@ -466,10 +466,11 @@ fn utf16_text_is_read_as_such_with_a_warning() {
 
 #[test]
 fn a_binary_file_is_refused_at_once_saying_what_it_holds() {
-    let cases: [(&[u8], &str); 5] = [
+    let cases: [(&[u8], &str); 6] = [
         (b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR", "a PNG image"),
         (b"\x1f\x8b\x08\x08\0\0\0\0\0\x03s.nff\0", "gzip-compressed data (decompress it first)"),
         (b"\xff\xd8\xff\xe0\0\x10JFIF\0", "a JPEG image"),
+        (b"glTF\x02\0\0\0", "a binary glTF scene"),
         (&[0; 40], "binary data (byte 0x00, a control character, in its first 16 bytes)"),
         (b"v from 0\x01\x02 0 5", "binary data (byte 0x01, a control character, in its first 16 bytes)"),
     ];
