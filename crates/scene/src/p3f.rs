@@ -208,7 +208,7 @@ fn binary_kind(bytes: &[u8]) -> Option<String> {
     if let Some((_, kind)) = SIGNATURES.iter().find(|(magic, _)| bytes.starts_with(magic)) {
         return Some((*kind).to_owned());
     }
-    if utf16_text(bytes).is_some() {
+    if utf16_order(bytes).is_some() {
         return None;
     }
     let head = &bytes[..bytes.len().min(16)];
@@ -217,25 +217,32 @@ fn binary_kind(bytes: &[u8]) -> Option<String> {
         .map(|b| format!("binary data (byte 0x{b:02X}, a control character, in its first 16 bytes)"))
 }
 
-/// The text of UTF-16 bytes (as Windows Notepad's "Unicode" or PowerShell's `>` write a file) and
-/// their byte order, told by a byte-order mark or, without one, by the zero bytes that ASCII
-/// characters have in one half of each pair; `None` for any other bytes (a scene's text never holds
-/// a zero byte). A lone last byte or an unpaired surrogate reads as U+FFFD.
+/// The byte order of UTF-16 bytes (as Windows Notepad's "Unicode" or PowerShell's `>` write a
+/// file), `true` for little-endian, and the length of their byte-order mark: told by the mark or,
+/// without one, by the zero bytes that ASCII characters have in one half of each pair; `None` for
+/// any other bytes (a scene's text never holds a zero byte).
+fn utf16_order(bytes: &[u8]) -> Option<(bool, usize)> {
+    if bytes.starts_with(b"\xFF\xFE") {
+        return Some((true, 2));
+    }
+    if bytes.starts_with(b"\xFE\xFF") {
+        return Some((false, 2));
+    }
+    let head = &bytes[..bytes.len().min(64) & !1];
+    let zero_at = |parity: usize| head.iter().enumerate().all(|(i, &b)| (b == 0) == (i % 2 == parity));
+    match () {
+        _ if head.is_empty() => None,
+        _ if zero_at(1) => Some((true, 0)),
+        _ if zero_at(0) => Some((false, 0)),
+        _ => None,
+    }
+}
+
+/// The text of UTF-16 bytes ([`utf16_order`]) and the name of their byte order; a lone last byte or
+/// an unpaired surrogate reads as U+FFFD.
 fn utf16_text(bytes: &[u8]) -> Option<(String, &'static str)> {
-    let (body, little) = if let Some(body) = bytes.strip_prefix(b"\xFF\xFE") {
-        (body, true)
-    } else if let Some(body) = bytes.strip_prefix(b"\xFE\xFF") {
-        (body, false)
-    } else {
-        let head = &bytes[..bytes.len().min(64) & !1];
-        let zero_at = |parity: usize| head.iter().enumerate().all(|(i, &b)| (b == 0) == (i % 2 == parity));
-        match () {
-            _ if head.is_empty() => return None,
-            _ if zero_at(1) => (bytes, true),
-            _ if zero_at(0) => (bytes, false),
-            _ => return None,
-        }
-    };
+    let (little, mark) = utf16_order(bytes)?;
+    let body = &bytes[mark..];
     let units = body
         .chunks_exact(2)
         .map(|p| if little { u16::from_le_bytes([p[0], p[1]]) } else { u16::from_be_bytes([p[0], p[1]]) });
