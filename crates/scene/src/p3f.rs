@@ -103,7 +103,8 @@ impl Loaded {
 
 /// Reads and parses a scene file of any dialect (a regular file or a pipe).
 ///
-/// Text that is not UTF-8 is read as Latin-1, with a warning naming the first byte that is not.
+/// UTF-16 text is read as such, and text that is not UTF-8 as Latin-1, with a warning (naming, for
+/// Latin-1, the first byte that is not UTF-8).
 pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, SceneError> {
     let path = path.as_ref();
     let io = |source: std::io::Error| SceneError::Io { path: path.to_owned(), source };
@@ -115,9 +116,9 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Sce
     parse_bytes(&bytes, &path.display().to_string(), &options)
 }
 
-/// Parses the bytes of a scene file of any dialect ([`parse`] once decoded): text that is not
-/// UTF-8 is read as Latin-1, with a warning naming the first byte that is not (an error under
-/// `strict`).
+/// Parses the bytes of a scene file of any dialect ([`parse`] once decoded): UTF-16 text (with or
+/// without a byte-order mark) is read as UTF-16 with a warning, and text that is not UTF-8 is read
+/// as Latin-1 with a warning naming the first byte that is not (each an error under `strict`).
 ///
 /// ```
 /// use raylume_scene::p3f::{parse_bytes, LoadOptions};
@@ -126,6 +127,27 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Sce
 /// assert_eq!(loaded.warnings[0].to_string(), "latin1.p3f:1:68: warning: byte 0xFC is not UTF-8: the file is read as Latin-1");
 /// ```
 pub fn parse_bytes(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
+    if let Some(kind) = binary_kind(bytes) {
+        let message = format!("expected the text of a scene, found {kind}");
+        return Err(SceneError::Syntax { file: name.to_owned(), line: 1, column: 1, message, warnings: Vec::new() });
+    }
+    if let Some((text, order)) = utf16_text(bytes) {
+        let message = format!("the file is UTF-16 ({order}) text, not ASCII or UTF-8");
+        if options.strict {
+            return Err(SceneError::Syntax {
+                file: name.to_owned(),
+                line: 1,
+                column: 1,
+                message,
+                warnings: Vec::new(),
+            });
+        }
+        let message = format!("{message}: it is read as UTF-16");
+        let warning = Warning { file: name.to_owned(), line: 1, column: 1, message };
+        let mut loaded = parse(&text, name, options).map_err(|e| e.with_earlier_warnings(vec![warning.clone()]))?;
+        loaded.warnings.insert(0, warning);
+        return Ok(loaded);
+    }
     match std::str::from_utf8(bytes) {
         Ok(text) => parse(text, name, options),
         Err(e) => {
@@ -172,11 +194,72 @@ pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Line and column (in characters of the valid text before it) of byte `at`.
+/// What a file that is not text holds, told by its first bytes: the images raylume writes and
+/// reads, compressed data, a binary glTF scene, or any other bytes with a control character (not whitespace) among
+/// their first 16, which text never has; `None` for text, UTF-16 text included.
+fn binary_kind(bytes: &[u8]) -> Option<String> {
+    const SIGNATURES: [(&[u8], &str); 6] = [
+        (b"\x89PNG", "a PNG image"),
+        (b"\xFF\xD8\xFF", "a JPEG image"),
+        (b"\x76\x2F\x31\x01", "an OpenEXR image"),
+        (b"\x1F\x8B", "gzip-compressed data (decompress it first)"),
+        (b"PK\x03\x04", "a zip archive (extract the scene first)"),
+        (b"glTF", "a binary glTF scene"),
+    ];
+    if let Some((_, kind)) = SIGNATURES.iter().find(|(magic, _)| bytes.starts_with(magic)) {
+        return Some((*kind).to_owned());
+    }
+    if utf16_order(bytes).is_some() {
+        return None;
+    }
+    let head = &bytes[..bytes.len().min(16)];
+    head.iter()
+        .find(|&&b| b.is_ascii_control() && !b.is_ascii_whitespace())
+        .map(|b| format!("binary data (byte 0x{b:02X}, a control character, in its first 16 bytes)"))
+}
+
+/// The byte order of UTF-16 bytes (as Windows Notepad's "Unicode" or PowerShell's `>` write a
+/// file), `true` for little-endian, and the length of their byte-order mark: told by the mark or,
+/// without one, by the zero bytes that ASCII characters have in one half of each pair; `None` for
+/// any other bytes (a scene's text never holds a zero byte).
+fn utf16_order(bytes: &[u8]) -> Option<(bool, usize)> {
+    if bytes.starts_with(b"\xFF\xFE") {
+        return Some((true, 2));
+    }
+    if bytes.starts_with(b"\xFE\xFF") {
+        return Some((false, 2));
+    }
+    let head = &bytes[..bytes.len().min(64) & !1];
+    let zero_at = |parity: usize| head.iter().enumerate().all(|(i, &b)| (b == 0) == (i % 2 == parity));
+    match () {
+        _ if head.is_empty() => None,
+        _ if zero_at(1) => Some((true, 0)),
+        _ if zero_at(0) => Some((false, 0)),
+        _ => None,
+    }
+}
+
+/// The text of UTF-16 bytes ([`utf16_order`]) and the name of their byte order; a lone last byte or
+/// an unpaired surrogate reads as U+FFFD.
+fn utf16_text(bytes: &[u8]) -> Option<(String, &'static str)> {
+    let (little, mark) = utf16_order(bytes)?;
+    let body = &bytes[mark..];
+    let units = body
+        .chunks_exact(2)
+        .map(|p| if little { u16::from_le_bytes([p[0], p[1]]) } else { u16::from_be_bytes([p[0], p[1]]) });
+    let mut text: String = char::decode_utf16(units).map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER)).collect();
+    if body.len() % 2 == 1 {
+        text.push(char::REPLACEMENT_CHARACTER);
+    }
+    Some((text, if little { "little-endian" } else { "big-endian" }))
+}
+
+/// Line and column (in characters of the valid text before it) of byte `at`; lines end as the
+/// lexer ends them (LF, CR LF or a lone CR).
 fn position_of(bytes: &[u8], at: usize) -> (u32, u32) {
     let before = &bytes[..at];
-    let line = before.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
-    let start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let line = (0..at).filter(|&i| lexer::ends_line(bytes, i)).count() as u32 + 1;
+    let start = (0..at).rev().find(|&i| lexer::ends_line(bytes, i)).map_or(0, |i| i + 1);
     let column = String::from_utf8_lossy(&before[start..]).chars().count() as u32 + 1;
     (line, column)
 }

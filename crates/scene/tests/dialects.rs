@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use raylume_geometry::{Vec3, Vec3A};
 use raylume_render::{RenderOptions, RenderScene};
-use raylume_scene::p3f::{Dialect, LoadOptions, Loaded, load, parse};
+use raylume_scene::p3f::{Dialect, LoadOptions, Loaded, load, parse, parse_bytes};
 use raylume_scene::{AccelHint, LightShape, Scene, SceneError, Shape};
 
 fn example(name: &str) -> PathBuf {
@@ -238,6 +238,10 @@ fn malformed_variants_say_what_was_expected() {
             "x.p3f:2:1: expected 3 (x y z), 6 (x y z r g b) or 7 (x y z r g b size) numbers after 'l', found 4 numbers",
         ),
         (
+            format!("{CAMERA}l 4\n"),
+            "x.p3f:2:1: expected 3 (x y z), 6 (x y z r g b) or 7 (x y z r g b size) numbers after 'l', found 1 number",
+        ),
+        (
             format!("{CAMERA}al 0 0 4 0 0 -1 1 1 1\n"),
             "x.p3f:2:1: expected 8 (x y z ax ay az w h) or 11 (… r g b) numbers after 'al', found 9 numbers",
         ),
@@ -323,7 +327,7 @@ fn warnings_found_before_a_fatal_error_come_with_it() {
 fn shapes_without_a_surface_are_skipped_with_a_warning() {
     let text = format!(
         "{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1e-50\ns 0 0 0 0e5\nsm 0 0 0 1 0 0 0 0 1\nc 0 0 0 0 0 1 0 -0\nc\n1 2 3 1\n1 2 3 0.5\n\
-         s 1 1 1 1\n"
+         mesh 3 0\n0 0 0\n1 0 0\n0 1 0\ns 1 1 1 1\n"
     );
     let l = parse(&text, "d.p3f", &LoadOptions::default()).unwrap();
     let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
@@ -336,6 +340,7 @@ fn shapes_without_a_surface_are_skipped_with_a_warning() {
             "d.p3f:5:16: warning: a moving sphere radius of '0' leaves no surface: the sphere is skipped",
             "d.p3f:6:1: warning: a cone whose radii are both 0 has no surface: skipped",
             "d.p3f:7:1: warning: a cone whose base and apex are one point has no surface: skipped",
+            "d.p3f:10:8: warning: a mesh of 0 triangles has no surface: skipped",
         ]
     );
     assert_eq!(kinds(&l.scene), ["s"], "only the last sphere has a surface");
@@ -386,6 +391,25 @@ fn stray_numbers_and_unknown_lines_with_their_numbers_are_skipped() {
 }
 
 #[test]
+fn lines_ended_by_a_lone_carriage_return_are_lines() {
+    // Classic Mac OS text: a comment ends at its CR, and free text skips its own line alone.
+    let text = "# the floor and a ball\rv\rfrom 0 0 5\rat 0 0 0\rup 0 1 0\rangle 45\rhither 0\rresolution 8 8\r\
+                Floor\rf 1 1 1 1 0 1 0 0\rp 3\r-1 -1 0\r1 -1 0\r0 1 0\rs 0 0 0 1 9\r";
+    let l = parse(text, "mac.nff", &LoadOptions::default()).unwrap();
+    assert_eq!(kinds(&l.scene), ["p", "s"]);
+    let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        shown,
+        [
+            "mac.nff:9:1: warning: unknown tag 'Floor': skipped 'Floor'",
+            "mac.nff:15:11: warning: unexpected number '9' where a tag was expected, skipped",
+        ]
+    );
+    let e = parse_bytes(b"v\rfrom 0 0 \xff", "mac.nff", &LoadOptions { strict: true, ..Default::default() });
+    assert_eq!(e.unwrap_err().to_string(), "mac.nff:2:10: byte 0xFF is not UTF-8");
+}
+
+#[test]
 fn text_that_is_not_utf8_is_read_as_latin1_with_a_warning() {
     let dir = std::env::temp_dir().join(format!("raylume-latin1-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -407,6 +431,58 @@ fn text_that_is_not_utf8_is_read_as_latin1_with_a_warning() {
     // A folder is not a scene file.
     assert!(matches!(load(&dir, &LoadOptions::default()), Err(SceneError::Io { .. })));
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn utf16_text_is_read_as_such_with_a_warning() {
+    let text = format!("{CAMERA}f 1 1 1 1 0 1 0 0\r\ns 0 0 0 1 # caf\u{e9}\r\n");
+    let le: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    let be: Vec<u8> = text.encode_utf16().flat_map(u16::to_be_bytes).collect();
+    let cases = [
+        ([&b"\xFF\xFE"[..], &le].concat(), "little-endian"),
+        ([&b"\xFE\xFF"[..], &be].concat(), "big-endian"),
+        (le.clone(), "little-endian"),
+        (be.clone(), "big-endian"),
+    ];
+    for (bytes, order) in &cases {
+        let l = parse_bytes(bytes, "u.p3f", &LoadOptions::default()).unwrap();
+        assert_eq!(kinds(&l.scene), ["s"], "{order}");
+        let shown: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+        assert_eq!(
+            shown,
+            [format!(
+                "u.p3f:1:1: warning: the file is UTF-16 ({order}) text, not ASCII or UTF-8: it is read as UTF-16"
+            )]
+        );
+        let e = parse_bytes(bytes, "u.p3f", &LoadOptions { strict: true, ..Default::default() }).unwrap_err();
+        assert_eq!(e.to_string(), format!("u.p3f:1:1: the file is UTF-16 ({order}) text, not ASCII or UTF-8"));
+    }
+    // Its errors have their positions in the decoded text, after the warning.
+    let bad: Vec<u8> = "v from 0 0 x".encode_utf16().flat_map(u16::to_le_bytes).collect();
+    let e = parse_bytes(&[&b"\xFF\xFE"[..], &bad].concat(), "u.p3f", &LoadOptions::default()).unwrap_err();
+    assert_eq!(e.to_string(), "u.p3f:1:12: expected a number (from z), found 'x'");
+    assert_eq!(e.warnings().len(), 1);
+}
+
+#[test]
+fn a_binary_file_is_refused_at_once_saying_what_it_holds() {
+    let cases: [(&[u8], &str); 6] = [
+        (b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR", "a PNG image"),
+        (b"\x1f\x8b\x08\x08\0\0\0\0\0\x03s.nff\0", "gzip-compressed data (decompress it first)"),
+        (b"\xff\xd8\xff\xe0\0\x10JFIF\0", "a JPEG image"),
+        (b"glTF\x02\0\0\0", "a binary glTF scene"),
+        (&[0; 40], "binary data (byte 0x00, a control character, in its first 16 bytes)"),
+        (b"v from 0\x01\x02 0 5", "binary data (byte 0x01, a control character, in its first 16 bytes)"),
+    ];
+    for (bytes, kind) in cases {
+        let e = parse_bytes(bytes, "b.nff", &LoadOptions::default()).unwrap_err();
+        assert_eq!(e.to_string(), format!("b.nff:1:1: expected the text of a scene, found {kind}"));
+        assert!(e.warnings().is_empty(), "{:?}", e.warnings());
+    }
+    // Text with a control character further on is read, with what it cannot read skipped.
+    let late = format!("{CAMERA}f 1 1 1 1 0 1 0 0\ns 0 0 0 1\n\0\0\0\n");
+    let l = parse_bytes(late.as_bytes(), "late.p3f", &LoadOptions::default()).unwrap();
+    assert_eq!((kinds(&l.scene), l.warnings.len()), (vec!["s"], 1));
 }
 
 fn shared() -> Option<PathBuf> {

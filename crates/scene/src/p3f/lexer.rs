@@ -1,6 +1,6 @@
 //! Tokens of p3f and NFF text: words and numbers separated by whitespace, `#` comments to the end
-//! of the line. Positions are counted as they are scanned, so lexing is linear in the text's length
-//! however long its lines are.
+//! of the line. Lines end with LF, CR LF or a lone CR (classic Mac OS text). Positions are counted
+//! as they are scanned, so lexing is linear in the text's length however long its lines are.
 
 /// A token and where it starts.
 #[derive(Clone, Copy, Debug)]
@@ -52,6 +52,15 @@ fn escaped(text: impl Iterator<Item = char>) -> String {
         }
     })
     .collect()
+}
+
+/// Whether the byte at `pos` ends a line: an LF, or a CR that no LF follows.
+pub(super) fn ends_line(bytes: &[u8], pos: usize) -> bool {
+    match bytes[pos] {
+        b'\n' => true,
+        b'\r' => bytes.get(pos + 1) != Some(&b'\n'),
+        _ => false,
+    }
 }
 
 #[derive(Clone)]
@@ -106,13 +115,13 @@ impl<'a> Lexer<'a> {
         let bytes = self.text.as_bytes();
         loop {
             while self.pos < bytes.len() && bytes[self.pos].is_ascii_whitespace() {
-                if bytes[self.pos] == b'\n' {
+                if ends_line(bytes, self.pos) {
                     self.newline_at(self.pos);
                 }
                 self.pos += 1;
             }
             if self.pos < bytes.len() && bytes[self.pos] == b'#' {
-                while self.pos < bytes.len() && bytes[self.pos] != b'\n' {
+                while self.pos < bytes.len() && !matches!(bytes[self.pos], b'\n' | b'\r') {
                     self.pos += 1;
                 }
                 continue;
@@ -161,7 +170,7 @@ impl<'a> Lexer<'a> {
     /// Skips the rest of `token`'s line; returns the text skipped from `token` on (its comment
     /// excluded).
     pub fn skip_line(&mut self, token: &Token<'a>) -> &'a str {
-        let end = self.text[token.offset..].find('\n').map_or(self.text.len(), |i| token.offset + i);
+        let end = self.text[token.offset..].find(['\n', '\r']).map_or(self.text.len(), |i| token.offset + i);
         let line = self.text[token.offset..end].split('#').next().unwrap_or("").trim();
         // A peeked token on the same line is skipped with it; one on a later line is kept.
         if self.peeked.is_some_and(|p| p.is_some_and(|p| p.offset < end)) {
@@ -215,6 +224,16 @@ mod tests {
         lex.peek();
         assert_eq!(lex.skip_line(&junk), "junk");
         assert_eq!(lex.next().unwrap().text, "s");
+    }
+
+    #[test]
+    fn a_lone_carriage_return_ends_a_line() {
+        let mut lex = Lexer::new("# old Mac\rFloor 1\rs 1 # r\r2\r\nv");
+        let floor = lex.next().unwrap();
+        assert_eq!((floor.text, floor.line, floor.first_on_line), ("Floor", 2, true));
+        assert_eq!(lex.skip_line(&floor), "Floor 1");
+        let toks: Vec<_> = std::iter::from_fn(|| lex.next()).map(|t| (t.text, t.line, t.column)).collect();
+        assert_eq!(toks, [("s", 3, 1), ("1", 3, 3), ("2", 4, 1), ("v", 5, 1)]);
     }
 
     #[test]

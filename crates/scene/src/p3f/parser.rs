@@ -206,8 +206,12 @@ impl<'a, 'f> Parser<'a, 'f> {
         if allowed.contains(&n) {
             return Ok(n);
         }
-        let found = if n == limit { format!("more than {}", limit - 1) } else { n.to_string() };
-        Err(self.error(tag, format!("expected {forms} after '{}', found {found} numbers", tag.text)))
+        let found = match n {
+            1 => "1 number".to_owned(),
+            n if n == limit => format!("more than {} numbers", limit - 1),
+            n => format!("{n} numbers"),
+        };
+        Err(self.error(tag, format!("expected {forms} after '{}', found {found}", tag.text)))
     }
 
     pub fn scene(mut self) -> Result<Loaded, SceneError> {
@@ -383,7 +387,7 @@ impl<'a, 'f> Parser<'a, 'f> {
                     None => Entity::Object(Shape::Cone { base, base_radius, apex, apex_radius }),
                 }
             }
-            "mesh" => Entity::Object(self.mesh()?),
+            "mesh" => self.mesh()?.map_or(Entity::Nothing, Entity::Object),
             "obj" => {
                 self.extensions.insert("obj");
                 Entity::Object(self.obj()?)
@@ -761,7 +765,9 @@ impl<'a, 'f> Parser<'a, 'f> {
         place.apply(shape).map_err(|e| self.error(&name, e.to_string()))
     }
 
-    fn mesh(&mut self) -> Result<Shape, SceneError> {
+    /// A mesh's counts, vertices and index triples; `None` (with a warning) for one of no triangles,
+    /// which has no surface.
+    fn mesh(&mut self) -> Result<Option<Shape>, SceneError> {
         let nv = self.count("mesh vertex count", 3, 3)?;
         let nf_token = self.lex.peek();
         let nf = self.integer("mesh triangle count", 0, u32::MAX as i64)? as usize;
@@ -798,7 +804,12 @@ impl<'a, 'f> Parser<'a, 'f> {
             }
             triangles.push(tri);
         }
-        Ok(Shape::Mesh { vertices, triangles, normals: Vec::new() })
+        if triangles.is_empty() {
+            let t = nf_token.expect("a number was read");
+            self.warn(&t, "a mesh of 0 triangles has no surface: skipped".to_owned())?;
+            return Ok(None);
+        }
+        Ok(Some(Shape::Mesh { vertices, triangles, normals: Vec::new() }))
     }
 }
 
