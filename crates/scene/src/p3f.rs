@@ -127,7 +127,7 @@ pub fn load(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Loaded, Sce
 /// assert_eq!(loaded.warnings[0].to_string(), "latin1.p3f:1:68: warning: byte 0xFC is not UTF-8: the file is read as Latin-1");
 /// ```
 pub fn parse_bytes(bytes: &[u8], name: &str, options: &LoadOptions) -> Result<Loaded, SceneError> {
-    if let Some(kind) = binary_kind(bytes) {
+    if let Some(kind) = foreign::binary_kind(bytes) {
         let message = format!("expected the text of a scene, found {kind}");
         return Err(SceneError::Syntax { file: name.to_owned(), line: 1, column: 1, message, warnings: Vec::new() });
     }
@@ -192,30 +192,6 @@ pub(crate) fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
         return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("more than {cap} bytes")));
     }
     Ok(bytes)
-}
-
-/// What a file that is not text holds, told by its first bytes: the images raylume writes and
-/// reads, compressed data, a binary glTF scene, or any other bytes with a control character (not whitespace) among
-/// their first 16, which text never has; `None` for text, UTF-16 text included.
-fn binary_kind(bytes: &[u8]) -> Option<String> {
-    const SIGNATURES: [(&[u8], &str); 6] = [
-        (b"\x89PNG", "a PNG image"),
-        (b"\xFF\xD8\xFF", "a JPEG image"),
-        (b"\x76\x2F\x31\x01", "an OpenEXR image"),
-        (b"\x1F\x8B", "gzip-compressed data (decompress it first)"),
-        (b"PK\x03\x04", "a zip archive (extract the scene first)"),
-        (b"glTF", "a binary glTF scene"),
-    ];
-    if let Some((_, kind)) = SIGNATURES.iter().find(|(magic, _)| bytes.starts_with(magic)) {
-        return Some((*kind).to_owned());
-    }
-    if utf16_order(bytes).is_some() {
-        return None;
-    }
-    let head = &bytes[..bytes.len().min(16)];
-    head.iter()
-        .find(|&&b| b.is_ascii_control() && !b.is_ascii_whitespace())
-        .map(|b| format!("binary data (byte 0x{b:02X}, a control character, in its first 16 bytes)"))
 }
 
 /// The byte order of UTF-16 bytes (as Windows Notepad's "Unicode" or PowerShell's `>` write a

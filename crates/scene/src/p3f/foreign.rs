@@ -1,5 +1,5 @@
-//! Files of other 3D formats given where a scene goes: recognised by their first line, so that the
-//! reader says what the file is instead of skipping its lines as unknown tags.
+//! Files of other formats given where a scene goes: recognised by their first bytes or their first
+//! line, so that the reader says what the file is instead of skipping its lines as unknown tags.
 
 /// The format of `text` if its first line (after blank and comment lines) is that of another 3D
 /// format than p3f and NFF: its name with an article, for the message, the line and column it was recognised at, and
@@ -39,6 +39,30 @@ pub(super) fn foreign_format(text: &str) -> Option<(&'static str, u32, u32, &'st
         _ if first.starts_with('<') => at("an XML document", NOT_READ),
         _ => None,
     }
+}
+
+/// What a file that is not text holds, told by its first bytes: the images raylume writes and
+/// reads, compressed data, a binary glTF scene, or any other bytes with a control character (not whitespace) among
+/// their first 16, which text never has; `None` for text, UTF-16 text included.
+pub(super) fn binary_kind(bytes: &[u8]) -> Option<String> {
+    const SIGNATURES: [(&[u8], &str); 6] = [
+        (b"\x89PNG", "a PNG image"),
+        (b"\xFF\xD8\xFF", "a JPEG image"),
+        (b"\x76\x2F\x31\x01", "an OpenEXR image"),
+        (b"\x1F\x8B", "gzip-compressed data (decompress it first)"),
+        (b"PK\x03\x04", "a zip archive (extract the scene first)"),
+        (b"glTF", "a binary glTF scene"),
+    ];
+    if let Some((_, kind)) = SIGNATURES.iter().find(|(magic, _)| bytes.starts_with(magic)) {
+        return Some((*kind).to_owned());
+    }
+    if super::utf16_order(bytes).is_some() {
+        return None;
+    }
+    let head = &bytes[..bytes.len().min(16)];
+    head.iter()
+        .find(|&&b| b.is_ascii_control() && !b.is_ascii_whitespace())
+        .map(|b| format!("binary data (byte 0x{b:02X}, a control character, in its first 16 bytes)"))
 }
 
 #[cfg(test)]
