@@ -269,6 +269,14 @@ impl Steps for Scene {
         features.antialiasing |= plan.passes > 1 || plan.budget();
         let mut warnings = Vec::new();
         let background = self.background(options, &mut warnings)?;
+        // With a cubemap, a scene of no objects shows the sky, as it may be meant to.
+        if self.objects.is_empty() && background.env.is_none() {
+            let message = "the scene has no objects: the image is its background colour";
+            if options.strict {
+                return Err(SceneError::Invalid(format!("{message} (an error when rendering strictly)")));
+            }
+            warnings.push(Warning { file: String::new(), line: 0, column: 0, message: message.to_owned() });
+        }
         if self.lights.is_empty() && !self.objects.is_empty() {
             let message = "the scene has no lights: its surfaces show only what they reflect or transmit (the \
                            shading model has no ambient term)";

@@ -572,6 +572,19 @@ fn a_scene_without_lights_renders_with_a_warning() {
     assert!(e.starts_with("the scene has no lights") && e.ends_with("(an error when rendering strictly)"), "{e}");
 }
 
+#[test]
+fn a_scene_without_objects_renders_its_background_with_a_warning() {
+    // Every object of the file under a tag the reader does not know.
+    let text = format!("{CAMERA}l 1 1 1\nppt 3\n0 0 0\n1 0 0\n0 1 0\n");
+    let loaded = parse(&text, "d.nff", &LoadOptions::default()).unwrap();
+    assert_eq!(loaded.warnings.len(), 1, "the unknown tag: {:?}", loaded.warnings);
+    let warnings = renders_a_picture_or_not(&loaded.scene);
+    assert_eq!(warnings, ["warning: the scene has no objects: the image is its background colour"]);
+    let strict = RenderOptions { strict: true, ..RenderOptions::default() };
+    let e = loaded.scene.render(&strict, &|| {}).unwrap_err().to_string();
+    assert!(e.starts_with("the scene has no objects") && e.ends_with("(an error when rendering strictly)"), "{e}");
+}
+
 /// The render's warnings, whatever its picture.
 fn renders_a_picture_or_not(scene: &Scene) -> Vec<String> {
     let out = scene.render(&RenderOptions::default(), &|| {}).unwrap();
