@@ -215,6 +215,40 @@ fn message(text: &str) -> String {
 
 const CAMERA: &str = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 8 8\n";
 
+/// Whole numbers written as decimals, as programs that print every number as a float write them.
+#[test]
+fn whole_numbers_written_as_decimals_are_read_with_a_warning() {
+    let text = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 512.0 2.56e2\nl 1 1 1\n\
+                f 1 1 1 1 0 0 0 0 0 0 1\np 3.\n0 0 0\n1 0 0\n0 1 0\n";
+    let l = parse(text, "floats.p3f", &LoadOptions::default()).unwrap();
+    assert_eq!((l.scene.view.width, l.scene.view.height), (512, 256));
+    assert_eq!(kinds(&l.scene), ["p"]);
+    let warnings: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        warnings,
+        [
+            "floats.p3f:1:61: warning: resolution width '512.0' is a whole number written as a decimal: read as 512",
+            "floats.p3f:1:67: warning: resolution height '2.56e2' is a whole number written as a decimal: read as 256",
+            "floats.p3f:4:3: warning: polygon vertex count '3.' is a whole number written as a decimal: read as 3",
+        ]
+    );
+    let strict = LoadOptions { strict: true, ..LoadOptions::default() };
+    let e = parse(text, "floats.p3f", &strict).unwrap_err().to_string();
+    assert!(
+        e.starts_with("floats.p3f:1:61: resolution width '512.0' is a whole number")
+            && e.ends_with("(an error when loading strictly)"),
+        "{e}"
+    );
+    for (field, expected) in [
+        ("512.5 256", "floats.p3f:1:61: expected an integer (resolution width), found '512.5'"),
+        ("1e9 256", "floats.p3f:1:61: expected resolution width in 1..=16384, found '1e9'"),
+    ] {
+        let text = text.replace("512.0 2.56e2", field);
+        let e = parse(&text, "floats.p3f", &LoadOptions::default()).unwrap_err().to_string();
+        assert!(e.starts_with(expected), "{e}");
+    }
+}
+
 #[test]
 fn malformed_variants_say_what_was_expected() {
     let f = "f 1 1 1 1 1 1 1 1 1 0 1\n";

@@ -174,7 +174,19 @@ impl<'a, 'f> Parser<'a, 'f> {
             Ok(_) | Err(_) if is_digits(t.text) => {
                 Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.shown())))
             }
-            _ => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown()))),
+            _ => match t.text.parse::<f64>() {
+                // A whole number written with a fraction or an exponent (`512.0`, `5.12e2`), as programs
+                // that print every number as a float write it: read as that integer, with a warning.
+                Ok(v) if v.is_finite() && v.fract() == 0.0 => {
+                    if !(min as f64..=max as f64).contains(&v) {
+                        return Err(self.error(&t, format!("expected {what} in {min}..={max}, found '{}'", t.shown())));
+                    }
+                    let message = format!("{what} '{}' is a whole number written as a decimal: read as {v}", t.shown());
+                    self.warn(&t, message)?;
+                    Ok(v as i64)
+                }
+                _ => Err(self.error(&t, format!("expected an integer ({what}), found '{}'", t.shown()))),
+            },
         }
     }
 
