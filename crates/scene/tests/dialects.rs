@@ -215,6 +215,34 @@ fn message(text: &str) -> String {
 
 const CAMERA: &str = "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 8 8\n";
 
+/// Files of programs that give no material: their objects are white and diffuse, as `f 1 1 1 1 0 0 0 0 1 0 1`
+/// makes them.
+#[test]
+fn objects_before_any_material_are_white_and_diffuse_with_a_warning() {
+    let text = format!("{CAMERA}l 0 5 5\ns 0 0 0 1\nbox 2 0 0 3 1 1\nf 1 0 0 1 0 0 0 0\ns 0 2 0 1\n");
+    let l = parse(&text, "plain.nff", &LoadOptions::default()).unwrap();
+    let warnings: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(
+        warnings,
+        [
+            "plain.nff:3:1: warning: 's' comes before any material: it takes a white diffuse one, as 'f 1 1 1 1 0 0 0 0 1 \
+          0 1' gives"
+        ]
+    );
+    let written = parse(&format!("{CAMERA}f 1 1 1 1 0 0 0 0 1 0 1\n"), "f.p3f", &LoadOptions::default()).unwrap();
+    assert_eq!(l.scene.materials[0], written.scene.materials[0]);
+    assert_eq!((l.scene.materials.len(), l.scene.materials[1].diffuse), (2, Vec3::X), "the file's own 'f' after it");
+    let materials: Vec<u32> = l.scene.objects.iter().map(|o| o.material).collect();
+    assert_eq!(materials, [0, 0, 1], "the two first objects take the white one");
+    let strict = LoadOptions { strict: true, ..LoadOptions::default() };
+    let e = parse(&text, "plain.nff", &strict).unwrap_err().to_string();
+    assert!(
+        e.starts_with("plain.nff:3:1: 's' comes before any material")
+            && e.ends_with("(an error when loading strictly)"),
+        "{e}"
+    );
+}
+
 /// Whole numbers written as decimals, as programs that print every number as a float write them.
 #[test]
 fn whole_numbers_written_as_decimals_are_read_with_a_warning() {

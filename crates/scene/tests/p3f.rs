@@ -111,7 +111,6 @@ fn malformed_files_name_file_line_column_and_what_was_expected() {
             "v from 0 0 5 at 0 0 0 up 0 1 0 angle 45 hither 0 resolution 16384 16384",
             "bad.p3f:1:61: resolution 16384 x 16384 exceeds 134217728 pixels",
         ),
-        (&format!("{HEADER}s 0 0 0 1"), "bad.p3f:8:1: 's' comes before any material: expected an 'f' entity first"),
         (
             &format!("{HEADER}f 1 1 1 1 1 1 1 1 1 0 1\nmesh 3 1\n0 0 0 1 0 0 0 1 0\n1 2 4"),
             "bad.p3f:11:5: vertex index 3 of mesh triangle 1 is 4, out of range for 3 vertices",

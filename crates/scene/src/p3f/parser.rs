@@ -239,10 +239,14 @@ impl<'a, 'f> Parser<'a, 'f> {
     fn entities(&mut self) -> Result<SceneParts<'a>, SceneError> {
         let mut parts = SceneParts::default();
         while let Some(tag) = self.lex.next() {
+            // Some programs' files give no material at all: their objects are white and diffuse.
             if OBJECT_TAGS.contains(&tag.text) && parts.materials.is_empty() {
-                return Err(
-                    self.error(&tag, format!("'{}' comes before any material: expected an 'f' entity first", tag.text))
+                let message = format!(
+                    "'{}' comes before any material: it takes a white diffuse one, as 'f 1 1 1 1 0 0 0 0 1 0 1' gives",
+                    tag.text
                 );
+                self.warn(&tag, message)?;
+                parts.materials.push(Phong::default());
             }
             match self.entity(&tag, &mut parts)? {
                 Entity::Nothing => {}
