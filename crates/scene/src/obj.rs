@@ -132,10 +132,22 @@ pub fn parse_with_warnings(bytes: &[u8], name: &str) -> Result<(Shape, Vec<Warni
         )));
     }
     let mut reader = Reader::new(name);
+    reader.other_format = other_format(bytes);
     for line in Lines::new(bytes) {
         reader.entry(&line)?;
     }
     reader.finish()
+}
+
+/// What `bytes` hold if they start as another format's file would (an image, compressed data, a PLY,
+/// STL, pbrt, glTF, USD or XML file): an OBJ file that holds no face says so.
+fn other_format(bytes: &[u8]) -> Option<String> {
+    use crate::p3f::foreign::{binary_kind, foreign_format};
+    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
+    binary_kind(bytes).or_else(|| {
+        let (format, _, _, instead) = foreign_format(&head)?;
+        (format != "a Wavefront OBJ mesh").then(|| format!("{format} ({instead})"))
+    })
 }
 
 /// A vertex, texture coordinate or normal that a face may refer to: how many of each came before.
@@ -274,6 +286,9 @@ struct Reader<'n> {
     first_short: Option<String>,
     /// Scratch: one face's corners.
     corners: Vec<(u32, Option<u32>)>,
+    /// What the file is, if its first bytes or line are those of another format: said instead of
+    /// what was found where no face is.
+    other_format: Option<String>,
 }
 
 impl<'n> Reader<'n> {
@@ -298,6 +313,7 @@ impl<'n> Reader<'n> {
             short_faces: 0,
             first_short: None,
             corners: Vec::new(),
+            other_format: None,
         }
     }
 
@@ -593,6 +609,9 @@ impl<'n> Reader<'n> {
                 let words: Vec<String> =
                     self.unknown.iter().map(|k| format!("'{}'", shown(&String::from_utf8_lossy(k)))).collect();
                 found.push(format!("unknown keywords {}", words.join(", ")));
+            }
+            if let Some(other) = self.other_format.take() {
+                return Err(SceneError::Invalid(format!("{}: expected an OBJ mesh, found {other}", self.name)));
             }
             let firsts = [&self.first_short, &self.first_unusable];
             let hint: String = firsts.into_iter().flatten().map(|first| format!("; {first}")).collect();

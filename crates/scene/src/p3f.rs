@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 
 use crate::{Scene, SceneError, Warning};
 
-mod foreign;
+pub(crate) mod foreign;
 mod lexer;
 pub(crate) use lexer::shown;
 mod parser;

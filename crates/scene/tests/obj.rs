@@ -154,6 +154,25 @@ fn lines_and_points_are_not_faces() {
     );
 }
 
+/// A file of another format given as an OBJ mesh is named as such; an OBJ file that starts like one
+/// but has faces is read as it is.
+#[test]
+fn files_of_other_formats_are_named_where_no_face_is() {
+    let cases: [(&[u8], &str); 4] = [
+        (b"ply\nformat ascii 1.0\nelement vertex 3\n", "m.obj: expected an OBJ mesh, found a PLY mesh"),
+        (b"solid x\n facet normal 0 0 1\n", "m.obj: expected an OBJ mesh, found an STL mesh"),
+        (b"\x89PNG\r\n\x1a\n", "m.obj: expected an OBJ mesh, found a PNG image"),
+        (b"{\"asset\": {}}\n", "m.obj: expected an OBJ mesh, found a JSON document"),
+    ];
+    for (bytes, expected) in cases {
+        assert!(error(bytes).starts_with(expected), "{}", error(bytes));
+    }
+    // Vertices alone: an OBJ file without faces, which the message describes.
+    assert!(error(b"v 0 0 0\nv 1 0 0\n").starts_with("m.obj: no faces (found 2 vertices"));
+    // A group named like a pbrt directive does not make an OBJ file anything else.
+    assert_eq!(triangles_of(b"o Camera\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").len(), 1);
+}
+
 /// A face whose vertices are collinear in f32 is never hit: the warning is at the first such face, and
 /// counts the others.
 #[test]
