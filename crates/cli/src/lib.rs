@@ -347,18 +347,14 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(mut args) => {
-            if args.mesh.is_none() && args.scene.as_deref().is_some_and(is_obj) {
-                args.mesh = args.scene.take();
-            }
+            obj_as_mesh(&mut args.scene, &mut args.mesh);
             render(*args)
         }
         Command::Compare { a, b } => compare(&a, &b),
         Command::Merge { output, parts } => farm::merge(&output, &parts),
         Command::Gen { name, size } => generate(&name, size),
         Command::Bench(mut args) => {
-            if args.mesh.is_none() && args.scene.as_deref().is_some_and(is_obj) {
-                args.mesh = args.scene.take();
-            }
+            obj_as_mesh(&mut args.scene, &mut args.mesh);
             bench_command(args)
         }
         Command::Converge(args) => converge::run(args),
@@ -953,6 +949,13 @@ fn bench_limits(args: &BenchCli) -> Result<(), Failure> {
 /// is rendered as `--mesh` renders it, framed by an automatic camera and light.
 pub(crate) fn is_obj(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+}
+
+/// An OBJ file given as the scene is taken as the `--mesh` it means.
+fn obj_as_mesh(scene: &mut Option<PathBuf>, mesh: &mut Option<PathBuf>) {
+    if mesh.is_none() && scene.as_deref().is_some_and(is_obj) {
+        *mesh = scene.take();
+    }
 }
 
 /// The OBJ mesh that `render --mesh` and `bench --mesh` frame, with what was skipped in it (an error

@@ -2,8 +2,8 @@
 //! line, so that the reader says what the file is instead of skipping its lines as unknown tags.
 
 /// The format of `text` if its first line (after blank and comment lines) is that of another 3D
-/// format than p3f and NFF: its name with an article, for the message, the line and column it was recognised at, and
-/// what to do instead.
+/// format than p3f and NFF: its name with an article, for the message, the line and column it was
+/// recognised at, and what to do instead.
 pub(crate) fn foreign_format(text: &str) -> Option<(&'static str, u32, u32, &'static str)> {
     const NOT_READ: &str = "raylume reads p3f and NFF scenes, and OBJ meshes";
     const AS_MESH: &str = "load it as a mesh: `raylume render --mesh FILE`, or `obj::load`";
@@ -42,8 +42,8 @@ pub(crate) fn foreign_format(text: &str) -> Option<(&'static str, u32, u32, &'st
 }
 
 /// What a file that is not text holds, told by its first bytes: the images raylume writes and
-/// reads, compressed data, a binary glTF scene, or any other bytes with a control character (not whitespace) among
-/// their first 16, which text never has; `None` for text, UTF-16 text included.
+/// reads, compressed data, a binary glTF scene, or any other bytes with a control character (not
+/// whitespace) among their first 16, which text never has; `None` for text, UTF-16 text included.
 pub(crate) fn binary_kind(bytes: &[u8]) -> Option<String> {
     const SIGNATURES: [(&[u8], &str); 6] = [
         (b"\x89PNG", "a PNG image"),
