@@ -230,6 +230,13 @@ pub(crate) struct BoxRay {
 pub(super) trait NodeTest<const W: usize> {
     fn intersect(&self, node: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
+    /// [`NodeTest::intersect`] as an any-hit walk takes it: the same children met, its operations
+    /// arranged for that walk.
+    #[inline(always)]
+    fn intersect_any(&self, node: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32) {
+        self.intersect(node, t_min, t_max)
+    }
+
     /// Starts loading `node` into the cache, where the test can (none by default).
     #[inline(always)]
     fn prefetch(&self, _node: &WideNode<W>) {}
@@ -610,7 +617,7 @@ impl<const W: usize> WideTree<W> {
             }
             let node = &self.nodes[cur as usize];
             tally.visited();
-            let (near, mask) = ray.intersect(node, t_min, end);
+            let (near, mask) = if ANY { ray.intersect_any(node, t_min, end) } else { ray.intersect(node, t_min, end) };
             if mask & mask.wrapping_sub(1) != 0 {
                 break (near, mask);
             }
@@ -644,7 +651,8 @@ impl<const W: usize> WideTree<W> {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
                 tally.visited();
-                let (near, mask) = ray.intersect(node, t_min, end);
+                let (near, mask) =
+                    if ANY { ray.intersect_any(node, t_min, end) } else { ray.intersect(node, t_min, end) };
                 if mask != 0 {
                     cur = ray.push::<ANY>(node, near, mask, &mut stack, &mut sp);
                     self.prefetch_top(ray, leaf, &stack, sp);
