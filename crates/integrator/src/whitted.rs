@@ -152,7 +152,9 @@ impl<const SOFT: u8> Whitted<SOFT> {
         stats: &mut RayStats,
     ) -> Vec3 {
         match found {
-            Some(found) => self.shade_surface(world, ray, &surface(world, ray, &found), depth, |_| None, sample, stats),
+            Some(found) => {
+                self.shade_surface(world, ray, &surface(world, ray, &found), depth, |_| None, None, sample, stats)
+            }
             None => self.escape(world, ray, depth),
         }
     }
@@ -166,7 +168,9 @@ impl<const SOFT: u8> Whitted<SOFT> {
     }
 
     /// The colour along `ray` whose closest hit is `surface`; `known(l)` is what a batch has found
-    /// already for the point light `l` (see [`Whitted::direct`]).
+    /// already for the point light `l` (see [`Whitted::direct`]), and `reflected` the closest hit of
+    /// the mirror reflection if a batch has found it (only for a mirror that reflects exactly, see
+    /// [`reflects_exactly`]).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn shade_surface<A: Accelerator, M: Material, S: SampleSource>(
@@ -176,6 +180,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
         surface: &Surface,
         depth: u32,
         known: impl Fn(usize) -> Option<Vec3A>,
+        reflected: Option<Option<PrimitiveHit>>,
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
@@ -272,13 +277,42 @@ impl<const SOFT: u8> Whitted<SOFT> {
                         dir = d;
                         stats.reflection += 1;
                         let r = Ray::with_time(above, dir, ray.time);
-                        color += mirror * self.trace(world, &r, 0.0, depth + 1, sample, stats);
+                        color += mirror
+                            * match reflected {
+                                Some(found) => self.shade_found(world, &r, found, depth + 1, sample, stats),
+                                None => self.trace(world, &r, 0.0, depth + 1, sample, stats),
+                            };
                     }
                 }
             }
         }
         color.clamp(Vec3::ZERO, Vec3::ONE)
     }
+}
+
+/// Whether [`Whitted::shade_surface`] reflects off `material` along the exact mirror direction
+/// (an opaque mirror that is not rough), drawing no samples for it.
+#[inline(always)]
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+fn reflects_exactly<M: Material>(material: &M) -> bool {
+    // Shading fuzzes only where `roughness > 0.0` holds: a NaN roughness reflects exactly too.
+    material.dielectric().is_none() && material.mirror() != Vec3::ZERO && !(material.roughness() > 0.0)
+}
+
+/// Whether the batch's mirror reflections are traced together: when every surface of the batch
+/// lies in one plane (the same geometric normal, bit for bit) and reflects exactly, the reflections
+/// are as coherent as the camera rays (those of a mirrored camera). Reflections off curved surfaces
+/// diverge, and gain nothing from being gathered; the check stops at the first surface that differs.
+#[inline]
+fn planar_mirror<A: Accelerator, M: Material>(world: &World<A, M>, surfaces: &[Option<Surface>]) -> bool {
+    let mut plane = None;
+    for s in surfaces.iter().flatten() {
+        let n = s.n.to_array().map(f32::to_bits);
+        if *plane.get_or_insert(n) != n || !reflects_exactly(&world.materials[s.material as usize]) {
+            return false;
+        }
+    }
+    plane.is_some()
 }
 
 /// Where a ray meets a surface, as shading sees it.
@@ -375,6 +409,10 @@ pub struct BatchBuffers {
     /// (its centre, or the point the sample drew on it) if that light reaches it, else zero (slots of
     /// area lights as grids, and past the batch, hold stale values).
     lit: Vec<Vec3A>,
+    /// The mirror reflections of a batch whose surfaces lie in one plane, in their first slots (one
+    /// per sample with a surface, in the samples' order), and their closest hits.
+    reflections: Vec<Ray>,
+    reflection_hits: Vec<Option<PrimitiveHit>>,
 }
 
 /// Makes `buffer` at least `len` long (with `fill`), never shorter: its slots are written before
@@ -446,7 +484,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         let count = rays.len();
         assert!(firsts.len() == count && samples.len() == count && colors.len() == count, "one of each per ray");
         let lights = world.lights.len();
-        let BatchBuffers { surfaces, rays: shadow, ends, owners, answers, lit } = buffers;
+        let BatchBuffers { surfaces, rays: shadow, ends, owners, answers, lit, reflections, reflection_hits } = buffers;
         surfaces.clear();
         surfaces.extend(rays.iter().zip(firsts).map(|(ray, first)| first.map(|f| surface(world, ray, &f))));
         // Every slot is written below (those of area lights are never read): the buffers only grow,
@@ -497,12 +535,30 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
                 }
             }
         }
+        // The mirror reflections shading would trace one by one (the same rays, from the same
+        // numbers), found together.
+        let gathered = 1 < self.max_depth && planar_mirror(world, surfaces);
+        if gathered {
+            grow(reflections, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
+            grow(reflection_hits, count, None);
+            let mut mirrored = 0;
+            for (s, ray) in surfaces.iter().zip(rays) {
+                if let Some(s) = s {
+                    reflections[mirrored] = Ray::with_time(s.above, reflect(ray.dir, s.ns).normalize(), ray.time);
+                    mirrored += 1;
+                }
+            }
+            let all = Interval::new(0.0, f32::INFINITY);
+            world.accel.closest_hits(&reflections[..mirrored], all, &mut reflection_hits[..mirrored]);
+        }
+        let mut found = reflection_hits.iter();
         let samples = rays.iter().zip(surfaces.iter()).zip(samples).zip(colors.iter_mut());
         for (i, (((ray, s), sample), color)) in samples.enumerate() {
             *color = match s {
                 Some(s) => {
                     let known = |l: usize| batched(l).then(|| lit[l * count + i]);
-                    self.shade_surface(world, ray, s, 1, known, sample, stats)
+                    let reflected = if gathered { found.next().copied() } else { None };
+                    self.shade_surface(world, ray, s, 1, known, reflected, sample, stats)
                 }
                 None => self.escape(world, ray, 1),
             };

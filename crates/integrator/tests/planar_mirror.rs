@@ -1,0 +1,139 @@
+//! A batch of camera samples whose surfaces all lie on one mirror plane finds its reflections
+//! together ([`Integrator::radiances_after`]): each colour is the one [`Integrator::radiance`] gives
+//! the sample on its own, bit for bit, and so are the ray counts.
+
+use raylume_accel::{Accelerator, Bvh};
+use raylume_camera::{Camera, CameraSample, Pinhole, View};
+use raylume_geometry::{Interval, Sphere, Triangle, Vec2, Vec3, Vec3A};
+use raylume_integrator::{
+    Background, BatchBuffers, Integrator, Jittered, Light, RayStats, RenderSettings, SampleSource, Sampler, Shading,
+    SoftShadows, Whitted, World,
+};
+use raylume_intersect::Primitive;
+use raylume_material::Phong;
+
+/// Mirror and matte balls over a mirror floor of two triangles (the last two primitives) in the
+/// plane z = 0; with `smooth`, the floor's shading normals lean away from its geometric normal.
+fn world(lights: Vec<Light>, smooth: bool) -> World<Bvh<Primitive>, Phong> {
+    let ball = |x: f32, y: f32, z: f32, r: f32| Primitive::Sphere(Sphere { center: Vec3A::new(x, y, z), radius: r });
+    let mut prims = vec![
+        ball(-1.2, 0.0, 0.5, 0.5),
+        ball(0.0, 0.3, 0.4, 0.4),
+        ball(1.1, 0.8, 0.6, 0.55),
+        ball(0.2, 1.6, 0.5, 0.5),
+        ball(-0.9, 1.5, 0.45, 0.45),
+    ];
+    let v = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
+    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, -4.0), v(4.0, 4.0))));
+    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, 4.0), v(-4.0, 4.0))));
+    let mirror = Phong { kd: 0.2, specular: Vec3::ONE, ks: 0.8, shine: 30.0, ..Phong::default() };
+    let matte = Phong { diffuse: Vec3::new(0.3, 0.7, 0.4), kd: 0.9, ks: 0.0, ..Phong::default() };
+    let floor = Phong {
+        diffuse: Vec3::new(0.8, 0.6, 0.3),
+        kd: 0.8,
+        specular: Vec3::ONE,
+        ks: 0.2,
+        shine: 10.0,
+        ..Phong::default()
+    };
+    let of = vec![0, 1, 0, 0, 1, 2, 2];
+    let accel = Bvh::new(prims, Interval::new(0.0, 0.0));
+    assert!(accel.gathers_coherent_rays(), "the reflections walk as packets");
+    let mut world =
+        World::new(accel, vec![mirror, matte, floor], of, lights, Background::color(Vec3::new(0.2, 0.3, 0.5)));
+    if smooth {
+        let lean = |x: f32, y: f32| Vec3A::new(x, y, 1.0).normalize();
+        world.vertex_normals = vec![
+            [lean(0.1, 0.0), lean(0.0, 0.1), lean(-0.1, 0.05)],
+            [lean(0.1, 0.0), lean(-0.1, 0.05), lean(0.05, -0.1)],
+        ];
+        world.shading[5] = Shading { material: 2, normals: Some(0) };
+        world.shading[6] = Shading { material: 2, normals: Some(1) };
+    }
+    world
+}
+
+/// Renders `world` in 8x8 tiles with [`Integrator::radiances_after`] and compares every sample's
+/// colour with [`Integrator::radiance`]'s; returns how many tiles saw only the floor.
+fn compare<const SOFT: u8>(world: &World<Bvh<Primitive>, Phong>, spp: u32) -> usize {
+    let view = View {
+        from: Vec3A::new(0.5, -4.0, 2.5),
+        at: Vec3A::new(0.0, 0.6, 0.4),
+        up: Vec3A::Z,
+        angle_deg: 40.0,
+        hither: 0.0,
+        width: 64,
+        height: 48,
+        aperture: 0.0,
+        focal: 1.0,
+    };
+    let camera = Pinhole::new(&view);
+    let settings = RenderSettings { max_depth: 6, spp, seed: 3, ..RenderSettings::default() };
+    let integrator = Whitted::<SOFT>::with_soft_shadows(&settings);
+    let sampler = Jittered::new(settings.seed, spp);
+    let t_min = camera.t_min();
+    let mut buffers = BatchBuffers::default();
+    let (mut batched, mut single) = (RayStats::default(), RayStats::default());
+    let mut floor_only = 0;
+    for ty in (0..view.height).step_by(8) {
+        for tx in (0..view.width).step_by(8) {
+            let mut rays = Vec::new();
+            let mut sources = Vec::new();
+            let mut fresh = Vec::new();
+            for y in ty..ty + 8 {
+                for x in tx..tx + 8 {
+                    for index in 0..spp {
+                        let mut src = sampler.begin(x, y, index);
+                        let film = Vec2::new(x as f32, y as f32) + src.film();
+                        rays.push(camera.generate_ray(&CameraSample { film, lens: Vec2::splat(0.5), time: 0.0 }));
+                        sources.push(src);
+                        let mut again = sampler.begin(x, y, index);
+                        again.film();
+                        fresh.push(again);
+                    }
+                }
+            }
+            let mut hits = vec![None; rays.len()];
+            world.accel.closest_hits(&rays, Interval::new(t_min, f32::INFINITY), &mut hits);
+            if hits.iter().all(|h| h.is_some_and(|h| h.primitive >= 5)) {
+                floor_only += 1;
+            }
+            let mut colors = vec![Vec3::ZERO; rays.len()];
+            integrator.radiances_after(
+                world,
+                &rays,
+                t_min,
+                &hits,
+                &mut sources,
+                &mut colors,
+                &mut buffers,
+                &mut batched,
+            );
+            for ((ray, color), src) in rays.iter().zip(&colors).zip(&mut fresh) {
+                let expected = integrator.radiance(world, ray, t_min, src, &mut single);
+                assert_eq!(
+                    color.to_array().map(f32::to_bits),
+                    expected.to_array().map(f32::to_bits),
+                    "tile ({tx}, {ty}): batched {color:?}, one by one {expected:?}"
+                );
+            }
+        }
+    }
+    assert_eq!(batched, single, "the same rays are counted");
+    floor_only
+}
+
+#[test]
+fn reflections_off_a_mirror_plane_found_together_match_one_by_one() {
+    let point = vec![
+        Light::point(Vec3A::new(2.0, -3.0, 5.0), Vec3::ONE),
+        Light::point(Vec3A::new(-3.0, 1.0, 4.0), Vec3::splat(0.6)),
+    ];
+    for smooth in [false, true] {
+        let tiles = compare::<{ SoftShadows::NONE }>(&world(point.clone(), smooth), 1);
+        assert!(tiles > 4, "{tiles} tiles see only the floor");
+        let area = vec![Light::square(Vec3A::new(2.0, -3.0, 5.0), Vec3::ONE, 0.8), point[1]];
+        compare::<{ SoftShadows::STRATIFIED }>(&world(area.clone(), smooth), 4);
+        compare::<{ SoftShadows::GRID }>(&world(area, smooth), 1);
+    }
+}
