@@ -121,6 +121,11 @@ struct RenderArgs {
     /// Use Schlick's approximation instead of the exact Fresnel equations.
     #[arg(long)]
     schlick: bool,
+    /// Adaptive depth control: leave out reflected and refracted rays whose weight in the pixel is
+    /// below W, in [0, 1] (0: trace every ray up to --depth). Each ray left out changes the pixel by
+    /// at most its weight (times the background's brightness, if above 1).
+    #[arg(long, default_value_t = 0.0, value_name = "W", allow_negative_numbers = true)]
+    min_weight: f32,
     /// Scale of the specular highlight (1: the plain model).
     #[arg(long, default_value_t = 1.0)]
     specular_scale: f32,
@@ -446,6 +451,7 @@ fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
         seed: args.seed,
         fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
         light_grid: args.light_grid,
+        min_weight: args.min_weight,
         crop: args.crop.as_ref().map(|c| [c[0], c[1], c[2], c[3]]),
         ..RenderSettings::default()
     };

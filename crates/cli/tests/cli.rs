@@ -531,6 +531,9 @@ fn flags_beyond_the_limits_exit_2_before_any_work() {
         (&["--crop", "0", "390", "8", "410"], "crop 0 390 8 410: expected pixels inside the 640 x 400 image"),
         (&["--shutter", "1", "0"], "shutter [1, 0] is not an interval"),
         (&["--grid-k", "0"], "grid density 0: expected a number in (0, 1000]"),
+        (&["--min-weight", "1.5"], "minimum weight 1.5: expected a number in [0, 1]"),
+        (&["--min-weight", "NaN"], "minimum weight NaN: expected a number in [0, 1]"),
+        (&["--min-weight", "-0.1"], "minimum weight -0.1: expected a number in [0, 1]"),
     ];
     for (flags, message) in cases {
         let run = raylume().arg("render").args(*flags).arg("-o").arg(&out).output().unwrap();

@@ -37,6 +37,13 @@ pub struct RenderSettings {
     /// The shading rules ([`Profile::Plain`]: the plain model). The scene API sets it from its
     /// render options' `profile`.
     pub profile: Profile,
+    /// Adaptive depth control: a reflected or refracted ray whose colour would enter the pixel's
+    /// with a weight below this (the product of the mirror colours' largest components, the
+    /// Fresnel reflectances and the transmitted fractions along its way from the camera) is not
+    /// traced, as with Rayshade's `cutoff` or POV-Ray's `adc_bailout`. Each ray left out changes its
+    /// sample's colour by at most its weight times the brightest colour it could bring back (1, or
+    /// the background's). 0, the default, traces every ray up to `max_depth`.
+    pub min_weight: f32,
 }
 
 impl Default for RenderSettings {
@@ -49,6 +56,7 @@ impl Default for RenderSettings {
             light_grid: 4,
             crop: None,
             profile: Profile::Plain,
+            min_weight: 0.0,
         }
     }
 }
@@ -82,6 +90,9 @@ impl RenderSettings {
         }
         if !(1..=MAX_LIGHT_GRID).contains(&self.light_grid) {
             return Err(format!("light grid {}: expected 1..={MAX_LIGHT_GRID}", self.light_grid));
+        }
+        if !(0.0..=1.0).contains(&self.min_weight) {
+            return Err(format!("minimum weight {}: expected a number in [0, 1]", self.min_weight));
         }
         if let Some([x0, y0, x1, y1]) = self.crop {
             if x0 >= x1 || y0 >= y1 {

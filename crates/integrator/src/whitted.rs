@@ -33,6 +33,7 @@ pub struct Whitted<const SOFT: u8> {
     fresnel: FresnelMode,
     grid: u32,
     profile: Profile,
+    min_weight: f32,
 }
 
 impl Whitted<{ SoftShadows::NONE }> {
@@ -51,6 +52,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             fresnel: settings.fresnel,
             grid: settings.light_grid.clamp(1, crate::MAX_LIGHT_GRID),
             profile: settings.profile,
+            min_weight: settings.min_weight,
         }
     }
 
@@ -114,49 +116,68 @@ impl<const SOFT: u8> Whitted<SOFT> {
         }
     }
 
-    fn trace<A: Accelerator, M: Material, S: SampleSource>(
+    fn trace<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
         ray: &Ray,
         t_min: f32,
         depth: u32,
+        weight: f32,
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
         let found = world.accel.closest_hit(ray, Interval::new(t_min, f32::INFINITY));
-        self.shade(world, ray, found, depth, sample, stats)
+        self.shade::<PRUNE, _, _, _>(world, ray, found, depth, weight, sample, stats)
     }
 
     /// [`Whitted::shade`] as a call of its own, for the recursion.
-    fn shade_found<A: Accelerator, M: Material, S: SampleSource>(
+    fn shade_found<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
         ray: &Ray,
         found: Option<PrimitiveHit>,
         depth: u32,
+        weight: f32,
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
-        self.shade(world, ray, found, depth, sample, stats)
+        self.shade::<PRUNE, _, _, _>(world, ray, found, depth, weight, sample, stats)
     }
 
     /// The colour along `ray` whose closest hit is `found`.
     #[inline(always)]
-    fn shade<A: Accelerator, M: Material, S: SampleSource>(
+    fn shade<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
         ray: &Ray,
         found: Option<PrimitiveHit>,
         depth: u32,
+        weight: f32,
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
         match found {
-            Some(found) => {
-                self.shade_surface(world, ray, &surface(world, ray, &found), depth, |_| None, None, sample, stats)
-            }
+            Some(found) => self.shade_surface::<PRUNE, _, _, _>(
+                world,
+                ray,
+                &surface(world, ray, &found),
+                depth,
+                weight,
+                |_| None,
+                None,
+                sample,
+                stats,
+            ),
             None => self.escape(world, ray, depth),
         }
+    }
+
+    /// Whether a ray whose colour enters the sample's with `weight` (the product of the weights on
+    /// its way from the camera, at most 1 for the course's materials) is traced: with `PRUNE`, not
+    /// if it is below [`RenderSettings::min_weight`]. A weight that is not a number is traced.
+    #[inline(always)]
+    fn traces<const PRUNE: bool>(&self, weight: f32) -> bool {
+        !PRUNE || !(weight < self.min_weight)
     }
 
     /// The colour seen along `ray` when it hits nothing.
@@ -173,12 +194,13 @@ impl<const SOFT: u8> Whitted<SOFT> {
     /// [`reflects_exactly`]).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn shade_surface<A: Accelerator, M: Material, S: SampleSource>(
+    fn shade_surface<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
         ray: &Ray,
         surface: &Surface,
         depth: u32,
+        weight: f32,
         known: impl Fn(usize) -> Option<Vec3A>,
         reflected: Option<Option<PrimitiveHit>>,
         sample: &mut S,
@@ -232,7 +254,6 @@ impl<const SOFT: u8> Whitted<SOFT> {
                     let kr = self.fresnel.reflectance(cos_i.max(0.0), eta);
                     (kr, if kr < 1.0 { refract(ray.dir, ns, eta) } else { None })
                 };
-                stats.reflection += 1;
                 let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
                 let all = Interval::new(0.0, f32::INFINITY);
                 // The ray that goes (or stays) inside the solid: inside a glass sphere, its hit is on
@@ -248,27 +269,44 @@ impl<const SOFT: u8> Whitted<SOFT> {
                         }
                     };
                 }
-                match refracted.filter(|_| kr < 1.0) {
-                    Some(dir) => {
+                let kt = (1.0 - kr) * d.transmittance;
+                let (wr, wt) = (weight * kr, weight * kt);
+                let reflects = self.traces::<PRUNE>(wr);
+                match refracted.filter(|_| kr < 1.0 && self.traces::<PRUNE>(wt)) {
+                    Some(dir) if reflects => {
+                        stats.reflection += 1;
                         stats.refraction += 1;
                         let below = offset_ray_origin(hit.point, hit.error, -n);
                         let t = Ray::with_time(below, dir, ray.time);
                         let (found_r, found_t) = (closest_hit!(&r, !entering), closest_hit!(&t, entering));
                         add_direct!();
-                        color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
-                        color += (1.0 - kr)
-                            * d.transmittance
-                            * self.shade_found(world, &t, found_t, depth + 1, sample, stats);
+                        color +=
+                            kr * self.shade_found::<PRUNE, _, _, _>(world, &r, found_r, depth + 1, wr, sample, stats);
+                        color +=
+                            kt * self.shade_found::<PRUNE, _, _, _>(world, &t, found_t, depth + 1, wt, sample, stats);
                     }
-                    None => {
+                    Some(dir) => {
+                        stats.refraction += 1;
+                        let below = offset_ray_origin(hit.point, hit.error, -n);
+                        let t = Ray::with_time(below, dir, ray.time);
+                        let found_t = closest_hit!(&t, entering);
+                        add_direct!();
+                        color +=
+                            kt * self.shade_found::<PRUNE, _, _, _>(world, &t, found_t, depth + 1, wt, sample, stats);
+                    }
+                    None if reflects => {
+                        stats.reflection += 1;
                         let found_r = closest_hit!(&r, !entering);
                         add_direct!();
-                        color += kr * self.shade_found(world, &r, found_r, depth + 1, sample, stats);
+                        color +=
+                            kr * self.shade_found::<PRUNE, _, _, _>(world, &r, found_r, depth + 1, wr, sample, stats);
                     }
+                    None => add_direct!(),
                 }
             } else {
                 let mirror = material.mirror();
-                if mirror != Vec3::ZERO {
+                let wm = weight * mirror.max_element();
+                if mirror != Vec3::ZERO && self.traces::<PRUNE>(wm) {
                     let mut dir = reflect(ray.dir, ns).normalize();
                     let roughness = material.roughness();
                     // Only rough materials draw fuzz samples; a mirror reflects exactly.
@@ -279,8 +317,10 @@ impl<const SOFT: u8> Whitted<SOFT> {
                         let r = Ray::with_time(above, dir, ray.time);
                         color += mirror
                             * match reflected {
-                                Some(found) => self.shade_found(world, &r, found, depth + 1, sample, stats),
-                                None => self.trace(world, &r, 0.0, depth + 1, sample, stats),
+                                Some(found) => {
+                                    self.shade_found::<PRUNE, _, _, _>(world, &r, found, depth + 1, wm, sample, stats)
+                                }
+                                None => self.trace::<PRUNE, _, _, _>(world, &r, 0.0, depth + 1, wm, sample, stats),
                             };
                     }
                 }
@@ -304,11 +344,16 @@ fn reflects_exactly<M: Material>(material: &M) -> bool {
 /// are as coherent as the camera rays (those of a mirrored camera). Reflections off curved surfaces
 /// diverge, and gain nothing from being gathered; the check stops at the first surface that differs.
 #[inline]
-fn planar_mirror<A: Accelerator, M: Material>(world: &World<A, M>, surfaces: &[Option<Surface>]) -> bool {
+fn planar_mirror<A: Accelerator, M: Material>(
+    world: &World<A, M>,
+    surfaces: &[Option<Surface>],
+    traces: impl Fn(f32) -> bool,
+) -> bool {
     let mut plane = None;
     for s in surfaces.iter().flatten() {
         let n = s.n.to_array().map(f32::to_bits);
-        if *plane.get_or_insert(n) != n || !reflects_exactly(&world.materials[s.material as usize]) {
+        let material = &world.materials[s.material as usize];
+        if *plane.get_or_insert(n) != n || !reflects_exactly(material) || !traces(material.mirror().max_element()) {
             return false;
         }
     }
@@ -451,7 +496,10 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
-        self.trace(world, ray, t_min, 1, sample, stats)
+        match self.prunes() {
+            true => self.trace::<true, _, _, _>(world, ray, t_min, 1, 1.0, sample, stats),
+            false => self.trace::<false, _, _, _>(world, ray, t_min, 1, 1.0, sample, stats),
+        }
     }
 
     fn radiance_after<A: Accelerator, M: Material, S: SampleSource>(
@@ -463,7 +511,10 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         sample: &mut S,
         stats: &mut RayStats,
     ) -> Vec3 {
-        self.shade(world, ray, first, 1, sample, stats)
+        match self.prunes() {
+            true => self.shade::<true, _, _, _>(world, ray, first, 1, 1.0, sample, stats),
+            false => self.shade::<false, _, _, _>(world, ray, first, 1, 1.0, sample, stats),
+        }
     }
 
     /// The shadow rays of the whole batch traced together, light by light
@@ -475,6 +526,33 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         world: &World<A, M>,
         rays: &[Ray],
         _t_min: f32,
+        firsts: &[Option<PrimitiveHit>],
+        samples: &mut [S],
+        colors: &mut [Vec3],
+        buffers: &mut BatchBuffers,
+        stats: &mut RayStats,
+    ) {
+        match self.prunes() {
+            true => self.batch::<true, _, _, _>(world, rays, firsts, samples, colors, buffers, stats),
+            false => self.batch::<false, _, _, _>(world, rays, firsts, samples, colors, buffers, stats),
+        }
+    }
+}
+
+impl<const SOFT: u8> Whitted<SOFT> {
+    /// Whether rays below [`RenderSettings::min_weight`] are left out (with a weight of 0, every ray
+    /// is traced, by the code that does not weigh them).
+    #[inline]
+    fn prunes(&self) -> bool {
+        self.min_weight > 0.0
+    }
+
+    /// [`Integrator::radiances_after`], its rays weighed if `PRUNE`.
+    #[allow(clippy::too_many_arguments)]
+    fn batch<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
+        &self,
+        world: &World<A, M>,
+        rays: &[Ray],
         firsts: &[Option<PrimitiveHit>],
         samples: &mut [S],
         colors: &mut [Vec3],
@@ -537,7 +615,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
         }
         // The mirror reflections shading would trace one by one (the same rays, from the same
         // numbers), found together.
-        let gathered = 1 < self.max_depth && planar_mirror(world, surfaces);
+        let gathered = 1 < self.max_depth && planar_mirror(world, surfaces, |w| self.traces::<PRUNE>(w));
         if gathered {
             grow(reflections, count, Ray::new(Vec3A::ZERO, Vec3A::ZERO));
             grow(reflection_hits, count, None);
@@ -558,7 +636,7 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
                 Some(s) => {
                     let known = |l: usize| batched(l).then(|| lit[l * count + i]);
                     let reflected = if gathered { found.next().copied() } else { None };
-                    self.shade_surface(world, ray, s, 1, known, reflected, sample, stats)
+                    self.shade_surface::<PRUNE, _, _, _>(world, ray, s, 1, 1.0, known, reflected, sample, stats)
                 }
                 None => self.escape(world, ray, 1),
             };

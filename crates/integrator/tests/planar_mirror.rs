@@ -2,13 +2,11 @@
 //! together ([`Integrator::radiances_after`]): each colour is the one [`Integrator::radiance`] gives
 //! the sample on its own, bit for bit, and so are the ray counts.
 
+mod common;
+
 use raylume_accel::{Accelerator, Bvh};
-use raylume_camera::{Camera, CameraSample, Pinhole, View};
-use raylume_geometry::{Interval, Sphere, Triangle, Vec2, Vec3, Vec3A};
-use raylume_integrator::{
-    Background, BatchBuffers, Integrator, Jittered, Light, RayStats, RenderSettings, SampleSource, Sampler, Shading,
-    SoftShadows, Whitted, World,
-};
+use raylume_geometry::{Interval, Sphere, Triangle, Vec3, Vec3A};
+use raylume_integrator::{Background, Light, RenderSettings, Shading, SoftShadows, World};
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
 
@@ -53,73 +51,16 @@ fn world(lights: Vec<Light>, smooth: bool) -> World<Bvh<Primitive>, Phong> {
     world
 }
 
-/// Renders `world` in 8x8 tiles with [`Integrator::radiances_after`] and compares every sample's
-/// colour with [`Integrator::radiance`]'s; returns how many tiles saw only the floor.
+/// Compares the batch path with the one-by-one path on `world`; returns how many tiles saw only
+/// the floor.
 fn compare<const SOFT: u8>(world: &World<Bvh<Primitive>, Phong>, spp: u32) -> usize {
-    let view = View {
-        from: Vec3A::new(0.5, -4.0, 2.5),
-        at: Vec3A::new(0.0, 0.6, 0.4),
-        up: Vec3A::Z,
-        angle_deg: 40.0,
-        hither: 0.0,
-        width: 64,
-        height: 48,
-        aperture: 0.0,
-        focal: 1.0,
-    };
-    let camera = Pinhole::new(&view);
     let settings = RenderSettings { max_depth: 6, spp, seed: 3, ..RenderSettings::default() };
-    let integrator = Whitted::<SOFT>::with_soft_shadows(&settings);
-    let sampler = Jittered::new(settings.seed, spp);
-    let t_min = camera.t_min();
-    let mut buffers = BatchBuffers::default();
-    let (mut batched, mut single) = (RayStats::default(), RayStats::default());
     let mut floor_only = 0;
-    for ty in (0..view.height).step_by(8) {
-        for tx in (0..view.width).step_by(8) {
-            let mut rays = Vec::new();
-            let mut sources = Vec::new();
-            let mut fresh = Vec::new();
-            for y in ty..ty + 8 {
-                for x in tx..tx + 8 {
-                    for index in 0..spp {
-                        let mut src = sampler.begin(x, y, index);
-                        let film = Vec2::new(x as f32, y as f32) + src.film();
-                        rays.push(camera.generate_ray(&CameraSample { film, lens: Vec2::splat(0.5), time: 0.0 }));
-                        sources.push(src);
-                        let mut again = sampler.begin(x, y, index);
-                        again.film();
-                        fresh.push(again);
-                    }
-                }
-            }
-            let mut hits = vec![None; rays.len()];
-            world.accel.closest_hits(&rays, Interval::new(t_min, f32::INFINITY), &mut hits);
-            if hits.iter().all(|h| h.is_some_and(|h| h.primitive >= 5)) {
-                floor_only += 1;
-            }
-            let mut colors = vec![Vec3::ZERO; rays.len()];
-            integrator.radiances_after(
-                world,
-                &rays,
-                t_min,
-                &hits,
-                &mut sources,
-                &mut colors,
-                &mut buffers,
-                &mut batched,
-            );
-            for ((ray, color), src) in rays.iter().zip(&colors).zip(&mut fresh) {
-                let expected = integrator.radiance(world, ray, t_min, src, &mut single);
-                assert_eq!(
-                    color.to_array().map(f32::to_bits),
-                    expected.to_array().map(f32::to_bits),
-                    "tile ({tx}, {ty}): batched {color:?}, one by one {expected:?}"
-                );
-            }
+    common::batches_match_one_by_one::<SOFT>(world, &settings, |hits| {
+        if hits.iter().all(|h| h.is_some_and(|h| h.primitive >= 5)) {
+            floor_only += 1;
         }
-    }
-    assert_eq!(batched, single, "the same rays are counted");
+    });
     floor_only
 }
 
