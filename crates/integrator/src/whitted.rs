@@ -269,10 +269,12 @@ impl<const SOFT: u8> Whitted<SOFT> {
                         }
                     };
                 }
+                // A ray whose colour would be weighed by zero (as the reflection off glass of index 1
+                // often is) adds exactly nothing, and is not traced.
                 let kt = (1.0 - kr) * d.transmittance;
                 let (wr, wt) = (weight * kr, weight * kt);
-                let reflects = self.traces::<PRUNE>(wr);
-                match refracted.filter(|_| kr < 1.0 && self.traces::<PRUNE>(wt)) {
+                let reflects = kr != 0.0 && self.traces::<PRUNE>(wr);
+                match refracted.filter(|_| kr < 1.0 && kt != 0.0 && self.traces::<PRUNE>(wt)) {
                     Some(dir) if reflects => {
                         stats.reflection += 1;
                         stats.refraction += 1;

@@ -171,3 +171,23 @@ fn glass_leaves_out_its_faint_reflection_and_keeps_its_refraction() {
     assert!(some.refraction as f64 > 0.9 * all.refraction as f64, "{some:?} against {all:?}");
     assert!(some.reflection + all.refraction / 4 < all.reflection, "{some:?} against {all:?}");
 }
+
+#[test]
+fn rays_weighed_by_zero_are_not_traced_even_at_a_minimum_of_zero() {
+    // Glass balls among matte ones over a matte floor: only the glass sends rays on.
+    let glass_of = |ior: f32| {
+        let mut world = world(true, point_lights());
+        let matte = Phong { diffuse: Vec3::new(0.3, 0.7, 0.4), kd: 0.9, ..Phong::default() };
+        world.materials[0] = matte;
+        world.materials[1] = matte;
+        world.materials[2].ior = ior;
+        world
+    };
+    let settings = RenderSettings { max_depth: 6, ..RenderSettings::default() };
+    let dense = common::batches_match_one_by_one::<{ SoftShadows::NONE }>(&glass_of(1.5), &settings, |_| {});
+    assert!(dense.reflection > 100 && dense.refraction > 100, "{dense:?}");
+    // Of index 1 its reflectance is zero, or within rounding of it: the reflections weighed by an
+    // exact zero would add exactly nothing, and are not traced.
+    let clear = common::batches_match_one_by_one::<{ SoftShadows::NONE }>(&glass_of(1.0), &settings, |_| {});
+    assert!(clear.refraction > 100 && 2 * clear.reflection < clear.refraction, "{clear:?}");
+}
