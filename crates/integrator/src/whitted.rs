@@ -175,6 +175,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
     /// Whether a ray whose colour enters the sample's with `weight` (the product of the weights on
     /// its way from the camera, at most 1 for the course's materials) is traced: with `PRUNE`, not
     /// if it is below [`RenderSettings::min_weight`]. A weight that is not a number is traced.
+    /// Without `PRUNE` every ray is, and the weights passed along are not formed.
     #[inline(always)]
     fn traces<const PRUNE: bool>(&self, weight: f32) -> bool {
         !PRUNE || !(weight < self.min_weight)
@@ -272,7 +273,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 // A ray whose colour would be weighed by zero (as the reflection off glass of index 1
                 // often is) adds exactly nothing, and is not traced.
                 let kt = (1.0 - kr) * d.transmittance;
-                let (wr, wt) = (weight * kr, weight * kt);
+                let (wr, wt) = if PRUNE { (weight * kr, weight * kt) } else { (weight, weight) };
                 let reflects = kr != 0.0 && self.traces::<PRUNE>(wr);
                 match refracted.filter(|_| kr < 1.0 && kt != 0.0 && self.traces::<PRUNE>(wt)) {
                     Some(dir) if reflects => {
@@ -307,7 +308,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 }
             } else {
                 let mirror = material.mirror();
-                let wm = weight * mirror.max_element();
+                let wm = if PRUNE { weight * mirror.max_element() } else { weight };
                 if mirror != Vec3::ZERO && self.traces::<PRUNE>(wm) {
                     let mut dir = reflect(ray.dir, ns).normalize();
                     let roughness = material.roughness();
