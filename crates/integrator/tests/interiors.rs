@@ -2,6 +2,8 @@
 //! that reach into it) without the accelerator, and shadow rays from inside a glass sphere are occluded
 //! by it: the image is the one the accelerator alone makes, bit for bit.
 
+mod common;
+
 use raylume_accel::{Accelerator, BruteForce, Bvh, Interiors};
 use raylume_camera::{Pinhole, View};
 use raylume_geometry::{Interval, Sphere, Triangle, Vec3, Vec3A};
@@ -27,16 +29,7 @@ fn scene(scale: f32) -> (Vec<Primitive>, Vec<u32>, Vec<Phong>) {
     let v = |x: f32, y: f32| Vec3A::new(x, y, -0.01) * scale;
     prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, -4.0), v(4.0, 4.0))));
     prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, 4.0), v(-4.0, 4.0))));
-    let glass = Phong {
-        diffuse: Vec3::ONE,
-        kd: 0.1,
-        specular: Vec3::ONE,
-        ks: 1.0,
-        shine: 100.0,
-        transmittance: 0.9,
-        ior: 1.5,
-        ..Phong::default()
-    };
+    let glass = common::glass();
     let mirror = Phong { kd: 0.2, specular: Vec3::ONE, ks: 0.8, shine: 30.0, ..Phong::default() };
     let floor = Phong { diffuse: Vec3::new(0.8, 0.6, 0.3), kd: 0.9, ..Phong::default() };
     let materials = vec![glass, mirror, floor];

@@ -6,7 +6,7 @@ mod common;
 
 use raylume_accel::{Bvh, Interiors};
 use raylume_camera::Pinhole;
-use raylume_geometry::{Interval, Sphere, Triangle, Vec3, Vec3A};
+use raylume_geometry::{Interval, Vec3, Vec3A};
 use raylume_integrator::{
     Background, Film, Jittered, Light, RayStats, RenderSettings, SoftShadows, Whitted, World, render,
 };
@@ -24,29 +24,9 @@ fn mirrors() -> [Phong; 2] {
 /// Balls over a mirror floor of two triangles in the plane z = 0: with `glass`, the first two balls
 /// are glass (and answered inside by their [`Interiors`]), else all are mirrors.
 fn world(glass: bool, lights: Vec<Light>) -> World<Bvh<Primitive>, Phong> {
-    let ball = |x: f32, y: f32, z: f32, r: f32| Primitive::Sphere(Sphere { center: Vec3A::new(x, y, z), radius: r });
-    let mut prims = vec![
-        ball(-1.2, 0.0, 0.5, 0.5),
-        ball(0.0, 0.3, 0.4, 0.4),
-        ball(1.1, 0.8, 0.6, 0.55),
-        ball(0.2, 1.6, 0.5, 0.5),
-        ball(-0.9, 1.5, 0.45, 0.45),
-    ];
-    let v = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
-    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, -4.0), v(4.0, 4.0))));
-    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, 4.0), v(-4.0, 4.0))));
+    let prims = common::balls_over_a_floor();
     let [bright, tinted] = mirrors();
-    let glass_ball = Phong {
-        diffuse: Vec3::ONE,
-        kd: 0.1,
-        specular: Vec3::ONE,
-        ks: 1.0,
-        shine: 100.0,
-        transmittance: 0.9,
-        ior: 1.5,
-        ..Phong::default()
-    };
-    let materials = vec![bright, tinted, glass_ball];
+    let materials = vec![bright, tinted, common::glass()];
     let of = if glass { vec![2, 2, 0, 1, 0, 1, 1] } else { vec![0, 1, 0, 1, 0, 1, 1] };
     let interiors = Interiors::new(&prims, |i| of[i] == 2, Interval::new(0.0, 0.0));
     let accel = Bvh::new(prims, Interval::new(0.0, 0.0));

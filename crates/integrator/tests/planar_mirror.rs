@@ -5,7 +5,7 @@
 mod common;
 
 use raylume_accel::{Accelerator, Bvh};
-use raylume_geometry::{Interval, Sphere, Triangle, Vec3, Vec3A};
+use raylume_geometry::{Interval, Vec3, Vec3A};
 use raylume_integrator::{Background, Light, RenderSettings, Shading, SoftShadows, World};
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
@@ -13,17 +13,7 @@ use raylume_material::Phong;
 /// Mirror and matte balls over a mirror floor of two triangles (the last two primitives) in the
 /// plane z = 0; with `smooth`, the floor's shading normals lean away from its geometric normal.
 fn world(lights: Vec<Light>, smooth: bool) -> World<Bvh<Primitive>, Phong> {
-    let ball = |x: f32, y: f32, z: f32, r: f32| Primitive::Sphere(Sphere { center: Vec3A::new(x, y, z), radius: r });
-    let mut prims = vec![
-        ball(-1.2, 0.0, 0.5, 0.5),
-        ball(0.0, 0.3, 0.4, 0.4),
-        ball(1.1, 0.8, 0.6, 0.55),
-        ball(0.2, 1.6, 0.5, 0.5),
-        ball(-0.9, 1.5, 0.45, 0.45),
-    ];
-    let v = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
-    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, -4.0), v(4.0, 4.0))));
-    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, 4.0), v(-4.0, 4.0))));
+    let prims = common::balls_over_a_floor();
     let mirror = Phong { kd: 0.2, specular: Vec3::ONE, ks: 0.8, shine: 30.0, ..Phong::default() };
     let matte = Phong { diffuse: Vec3::new(0.3, 0.7, 0.4), kd: 0.9, ks: 0.0, ..Phong::default() };
     let floor = Phong {

@@ -1,14 +1,45 @@
-//! What the integrator's tests share: a tile-by-tile comparison of the batch path with the
-//! one-by-one path.
+//! What the integrator's tests share: a scene of balls over a floor, a glass material, and a
+//! tile-by-tile comparison of the batch path with the one-by-one path.
+#![allow(dead_code)]
 
 use raylume_accel::{Accelerator, Bvh, PrimitiveHit};
 use raylume_camera::{Camera, CameraSample, Pinhole, View};
-use raylume_geometry::{Interval, Vec2, Vec3, Vec3A};
+use raylume_geometry::{Interval, Sphere, Triangle, Vec2, Vec3, Vec3A};
 use raylume_integrator::{
     BatchBuffers, Integrator, Jittered, RayStats, RenderSettings, SampleSource, Sampler, Whitted, World,
 };
 use raylume_intersect::Primitive;
 use raylume_material::Phong;
+
+/// Five balls over a floor of two triangles (the last two primitives) in the plane z = 0.
+pub fn balls_over_a_floor() -> Vec<Primitive> {
+    let ball = |x: f32, y: f32, z: f32, r: f32| Primitive::Sphere(Sphere { center: Vec3A::new(x, y, z), radius: r });
+    let mut prims = vec![
+        ball(-1.2, 0.0, 0.5, 0.5),
+        ball(0.0, 0.3, 0.4, 0.4),
+        ball(1.1, 0.8, 0.6, 0.55),
+        ball(0.2, 1.6, 0.5, 0.5),
+        ball(-0.9, 1.5, 0.45, 0.45),
+    ];
+    let v = |x: f32, y: f32| Vec3A::new(x, y, 0.0);
+    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, -4.0), v(4.0, 4.0))));
+    prims.push(Primitive::Triangle(Triangle::new(v(-4.0, -4.0), v(4.0, 4.0), v(-4.0, 4.0))));
+    prims
+}
+
+/// Clear glass of index 1.5 that transmits 90 % of what it refracts, with a faint diffuse colour.
+pub fn glass() -> Phong {
+    Phong {
+        diffuse: Vec3::ONE,
+        kd: 0.1,
+        specular: Vec3::ONE,
+        ks: 1.0,
+        shine: 100.0,
+        transmittance: 0.9,
+        ior: 1.5,
+        ..Phong::default()
+    }
+}
 
 /// The view the comparisons render: 64x48 pixels looking at the origin's neighbourhood from above
 /// the plane z = 0.
