@@ -965,12 +965,22 @@ fn obj_as_mesh(scene: &mut Option<PathBuf>, mesh: &mut Option<PathBuf>) {
 }
 
 /// The OBJ mesh that `render --mesh` and `bench --mesh` frame, with what was skipped in it (an error
-/// under `strict`). A mesh with no area at all is refused: nothing of it would be seen.
+/// under `strict`). A mesh with no area at all is refused: nothing of it would be seen. A file that
+/// is not an OBJ mesh but reads as a scene is refused with a word saying so.
 pub(crate) fn load_mesh(
     path: &Path,
     strict: bool,
 ) -> Result<(raylume_scene::Shape, Vec<raylume_scene::Warning>), Failure> {
-    let (mesh, warnings) = raylume_scene::obj::load_with_warnings(path).map_err(bad_input)?;
+    let (mesh, warnings) = raylume_scene::obj::load_with_warnings(path).map_err(|e| {
+        let options = p3f::LoadOptions { ignore_env: true, ..p3f::LoadOptions::default() };
+        match p3f::load(path, &options) {
+            Ok(scene) => bad_input(format!(
+                "{e}; the file reads as a {} scene: give it as the scene, without --mesh",
+                scene.dialect
+            )),
+            Err(_) => bad_input(e),
+        }
+    })?;
     if mesh.has_no_area() {
         return Err(bad_input(format!(
             "{}: no face of the mesh has an area (its vertices are collinear in f32): nothing to render",

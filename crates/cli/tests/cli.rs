@@ -834,6 +834,29 @@ fn gen_into_a_closed_pipe_ends_quietly() {
     assert_eq!(String::from_utf8_lossy(&run.stderr), "");
 }
 
+/// A scene given as `--mesh` is refused with the OBJ reader's error and a word that it is a scene;
+/// a file that is neither keeps the OBJ reader's error alone.
+#[test]
+fn a_scene_given_as_a_mesh_is_named_a_scene() {
+    let dir = temp_dir("scene-as-mesh");
+    let scene = dir.join("balls.p3f");
+    std::fs::write(&scene, "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0.01\nresolution 8 8\nl 1 1 5 1 1 1\nf 1 0 0 1 0 0 0 0 1 0 1\ns 0 0 0 1\n").unwrap();
+    let junk = dir.join("junk.obj");
+    std::fs::write(&junk, "v 1 2\n").unwrap();
+    for command in ["render", "bench"] {
+        let run = raylume().arg(command).arg("--mesh").arg(&scene).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("balls.p3f:1:1: not a readable OBJ file"), "{stderr}");
+        assert!(stderr.contains("the file reads as a p3f scene: give it as the scene, without --mesh"), "{stderr}");
+        let run = raylume().arg(command).arg("--mesh").arg(&junk).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("junk.obj:1:") && !stderr.contains("reads as"), "{stderr}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// An OBJ file given where a scene goes is a mesh, framed as `--mesh` frames it, in `render`,
 /// `bench` and `converge` alike; its extension is read in any case.
 #[test]
