@@ -38,7 +38,7 @@ pub fn reflect(d: Vec3A, n: Vec3A) -> Vec3A {
 
 /// The refracted direction of the unit direction `d` (pointing at the surface) through a surface with
 /// unit normal `n` facing the incoming side, for index ratio `eta = n_i / n_t` (Snell's law);
-/// `None` on total internal reflection.
+/// `None` on total internal reflection. With equal indices (`eta == 1`), `d` itself.
 ///
 /// ```
 /// use raylume_material::refract;
@@ -51,6 +51,10 @@ pub fn reflect(d: Vec3A, n: Vec3A) -> Vec3A {
 /// ```
 #[inline]
 pub fn refract(d: Vec3A, n: Vec3A, eta: f32) -> Option<Vec3A> {
+    if eta == 1.0 {
+        // Equal indices on both sides: the light goes on as it came.
+        return Some(d);
+    }
     let cos_i = (-d.dot(n)).min(1.0);
     let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
     if sin2_t >= 1.0 {
@@ -63,7 +67,7 @@ pub fn refract(d: Vec3A, n: Vec3A, eta: f32) -> Option<Vec3A> {
 /// The exact Fresnel reflectance of a dielectric interface for unpolarised light: `(Rs + Rp) / 2`.
 ///
 /// `cos_i` is the cosine of the angle of incidence (>= 0), `eta = n_i / n_t` the index ratio.
-/// Returns 1 under total internal reflection.
+/// Returns 1 under total internal reflection, and exactly 0 for equal indices (`eta == 1`).
 ///
 /// ```
 /// use raylume_material::fresnel_dielectric;
@@ -76,6 +80,10 @@ pub fn refract(d: Vec3A, n: Vec3A, eta: f32) -> Option<Vec3A> {
 /// ```
 #[inline]
 pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    if eta == 1.0 {
+        // Equal indices on both sides: nothing is reflected.
+        return 0.0;
+    }
     let cos_i = cos_i.clamp(0.0, 1.0);
     let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
     if sin2_t >= 1.0 {
@@ -107,6 +115,10 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
 #[inline]
 pub fn fresnel_refract(d: Vec3A, n: Vec3A, cos_i: f32, eta: f32) -> (f32, Option<Vec3A>) {
     debug_assert!(cos_i >= 0.0, "the cosine of incidence {cos_i} is negative or NaN");
+    if eta == 1.0 {
+        // Equal indices on both sides: nothing is reflected, and the light goes on as it came.
+        return (0.0, Some(d));
+    }
     // `clamp(0, 1)` of a non-negative cosine, and `refract`'s `min(1)`.
     let cos_i = cos_i.min(1.0);
     // 1 - cos^2 >= 0 here: `refract`'s `max(0)` changes nothing.

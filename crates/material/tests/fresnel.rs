@@ -176,3 +176,25 @@ fn phong_highlights_are_those_of_the_plain_half_vector_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn equal_indices_neither_reflect_nor_bend() {
+    let normals: Vec<Vec3A> = directions(37).collect();
+    for d in directions(2000) {
+        for &n in &normals {
+            let cos_i = (-d).dot(n);
+            if cos_i < 0.0 {
+                continue;
+            }
+            assert_eq!(fresnel_refract(d, n, cos_i, 1.0), (0.0, Some(d)), "d {d}, n {n}");
+            assert_eq!(fresnel_dielectric(cos_i, 1.0), 0.0);
+            assert_eq!(refract(d, n, 1.0), Some(d));
+            // Indices a little apart reflect a little, away from grazing incidence.
+            if cos_i > 0.5 {
+                for eta in [0.999, 1.001] {
+                    assert!(fresnel_dielectric(cos_i, eta) < 1e-5, "d {d}, n {n}, eta {eta}");
+                }
+            }
+        }
+    }
+}
