@@ -543,8 +543,8 @@ impl<const SOFT: u8> Integrator for Whitted<SOFT> {
 }
 
 impl<const SOFT: u8> Whitted<SOFT> {
-    /// Whether rays below [`RenderSettings::min_weight`] are left out (with a weight of 0, every ray
-    /// is traced, by the code that does not weigh them).
+    /// Whether rays below [`RenderSettings::min_weight`] are left out. With a minimum of 0 the code
+    /// that does not weigh rays runs, and traces every ray that adds anything.
     #[inline]
     fn prunes(&self) -> bool {
         self.min_weight > 0.0
