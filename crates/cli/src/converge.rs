@@ -7,7 +7,7 @@ use raylume_integrator::{Film, RenderSettings, metrics};
 use raylume_render::{RenderOptions, RenderScene, SamplerKind};
 use raylume_scene::{DEFAULT_SCENE, p3f};
 
-use crate::{Failure, SamplerArg, bad_input};
+use crate::{Failure, ImageArgs, SamplerArg, bad_input};
 
 #[derive(clap::Args)]
 pub struct ConvergeArgs {
@@ -42,12 +42,21 @@ pub struct ConvergeArgs {
     /// Ignore the scene's cubemap.
     #[arg(long)]
     no_env: bool,
+    /// Depth, shading rules, effects, accelerator and threads, as `render` takes them: the
+    /// reference and every measured render are made with them.
+    #[command(flatten)]
+    image: ImageArgs,
     /// The report folder (created if needed).
     #[arg(short, long, default_value = "report")]
     output: PathBuf,
 }
 
 pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
+    args.image.pool()?.install(|| measure(&args))
+}
+
+/// [`run`] on the pool of `--threads` workers.
+fn measure(args: &ConvergeArgs) -> Result<(), Failure> {
     let options = p3f::LoadOptions { ignore_env: args.no_env, ..Default::default() };
     let (scene, warnings) = match &args.scene {
         Some(path) if crate::is_obj(path) => {
@@ -72,8 +81,11 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
     if args.time_budgets.as_ref().is_some_and(|b| b.is_empty() || b.iter().any(|b| !b.is_finite() || *b <= 0.0)) {
         return Err(bad_input("--time-budgets: expected positive numbers of seconds"));
     }
-    let base =
-        RenderOptions { resolution: args.width.zip(args.height), use_env: !args.no_env, ..RenderOptions::default() };
+    let base = args.image.options(RenderOptions {
+        resolution: args.width.zip(args.height),
+        use_env: !args.no_env,
+        ..RenderOptions::default()
+    })?;
     // Every option is checked before the reference, the longest render, starts.
     RenderOptions { passes: args.passes, ..base.clone() }.validate().map_err(bad_input)?;
     let counts = if args.time_budgets.is_some() { &[][..] } else { &args.spp_list[..] };
@@ -88,7 +100,7 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         // Budgeted passes sample the pixel's area even at 1 spp: an open time limit, stopped after
         // the passes asked for.
         let options = RenderOptions {
-            settings: RenderSettings { seed, ..RenderSettings::default() },
+            settings: RenderSettings { seed, ..base.settings },
             spp: Some(spp),
             sampler,
             passes,
@@ -224,7 +236,7 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
         eprintln!("raylume: every error measured is 0 (each render equals the reference): no log-log plot to draw");
         return Ok(());
     }
-    plot(&png_path, &series, &scene_name(&args), "RMSE against the reference, and estimated (log)")
+    plot(&png_path, &series, &scene_name(args), "RMSE against the reference, and estimated (log)")
         .map_err(|e| Failure { code: 1, message: format!("{}: {e}", png_path.display()) })?;
     eprintln!("raylume: wrote {}", png_path.display());
     Ok(())
@@ -317,7 +329,7 @@ fn progressive_budgets(
     let mut budgets: Vec<f64> = budgets.to_vec();
     budgets.sort_by(f64::total_cmp);
     let options = RenderOptions {
-        settings: RenderSettings { seed: 1, ..RenderSettings::default() },
+        settings: RenderSettings { seed: 1, ..base.settings },
         spp: Some(1),
         passes: 1,
         time_limit: Some(f64::INFINITY),

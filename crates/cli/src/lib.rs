@@ -71,21 +71,10 @@ enum Command {
     },
 }
 
+/// The flags that decide how a scene's image is made (the depth, the shading rules, the effects) and
+/// with what (the accelerator, the threads): `render`'s and `converge`'s.
 #[derive(clap::Args)]
-struct RenderArgs {
-    /// The p3f or NFF scene (`-`: read from standard input; a .obj file is rendered as `--mesh`
-    /// renders it); without it, the embedded default scene.
-    scene: Option<PathBuf>,
-    /// Render an OBJ mesh instead, framed by an automatic camera and light.
-    #[arg(long, conflicts_with = "scene")]
-    mesh: Option<PathBuf>,
-    /// Output image: .png (8-bit), .exr or .pfm (linear float).
-    #[arg(short, long, default_value = "out.png")]
-    output: PathBuf,
-    /// Samples per pixel, 1..=65536 (1: the pixel centre; more with the jittered sampler: n x n
-    /// strata, n = ceil(sqrt(spp))); default: the scene's `spp`, else 1.
-    #[arg(long)]
-    spp: Option<u32>,
+pub(crate) struct ImageArgs {
     /// Maximum ray depth, counting the camera ray as 1 (default: the profile's, 4 for plain, 8 for course).
     #[arg(long)]
     depth: Option<u32>,
@@ -100,24 +89,6 @@ struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// Seed of the random samples.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Image width (overrides the scene's; give --height too).
-    #[arg(long, requires = "height")]
-    width: Option<u32>,
-    /// Image height (overrides the scene's; give --width too).
-    #[arg(long, requires = "width")]
-    height: Option<u32>,
-    /// Treat warnings (unknown tags, skipped lines, shapes without a surface, a missing cubemap) as errors.
-    #[arg(long)]
-    strict: bool,
-    /// A further folder to look for the scene's `env` cubemap in.
-    #[arg(long)]
-    env_dir: Vec<PathBuf>,
-    /// Ignore the scene's cubemap: escaping rays return the background colour.
-    #[arg(long)]
-    no_env: bool,
     /// Use Schlick's approximation instead of the exact Fresnel equations.
     #[arg(long)]
     schlick: bool,
@@ -147,12 +118,89 @@ struct RenderArgs {
     /// Density of the uniform grid: about K cells per primitive.
     #[arg(long, default_value_t = 2.0, value_name = "K")]
     grid_k: f32,
-    /// The sampler of antialiased renders.
-    #[arg(long, value_enum, default_value = "jittered")]
-    sampler: SamplerArg,
     /// Motion blur: the shutter interval.
     #[arg(long, num_args = 2, value_names = ["T0", "T1"])]
     shutter: Option<Vec<f32>>,
+}
+
+impl ImageArgs {
+    /// `base` with these flags' depth, shading rules, effects and accelerator (its seed, crop,
+    /// resolution, sampler and passes kept), not yet validated.
+    pub(crate) fn options(&self, base: RenderOptions) -> Result<RenderOptions, Failure> {
+        check_threads(self.threads)?;
+        let profile = Profile::from(self.profile);
+        let settings = RenderSettings {
+            max_depth: self.depth.unwrap_or(profile.default_depth()),
+            fresnel: if self.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
+            light_grid: self.light_grid,
+            min_weight: self.min_weight,
+            ..base.settings
+        };
+        Ok(RenderOptions {
+            settings,
+            accel: self.accel.map(accel_kind),
+            specular_scale: self.specular_scale,
+            area_light_size: self.area_light,
+            roughness: self.roughness,
+            aperture: self.aperture,
+            focal: self.focal,
+            shutter: self.shutter.as_ref().map(|s| (s[0], s[1])),
+            grid: raylume_accel::GridParams { k: self.grid_k, mailbox: true },
+            profile,
+            ..base
+        })
+    }
+
+    /// The pool of `threads` workers whose stacks take the deepest recursion `--depth` allows.
+    pub(crate) fn pool(&self) -> Result<rayon::ThreadPool, Failure> {
+        check_threads(self.threads)?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads.unwrap_or(0))
+            .stack_size(RENDER_STACK_BYTES)
+            .build()
+            .map_err(|e| Failure { code: 1, message: e.to_string() })
+    }
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The p3f or NFF scene (`-`: read from standard input; a .obj file is rendered as `--mesh`
+    /// renders it); without it, the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Render an OBJ mesh instead, framed by an automatic camera and light.
+    #[arg(long, conflicts_with = "scene")]
+    mesh: Option<PathBuf>,
+    /// Output image: .png (8-bit), .exr or .pfm (linear float).
+    #[arg(short, long, default_value = "out.png")]
+    output: PathBuf,
+    /// Depth, shading rules, effects, accelerator and threads.
+    #[command(flatten)]
+    image: ImageArgs,
+    /// Samples per pixel, 1..=65536 (1: the pixel centre; more with the jittered sampler: n x n
+    /// strata, n = ceil(sqrt(spp))); default: the scene's `spp`, else 1.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Seed of the random samples.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Image width (overrides the scene's; give --height too).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Image height (overrides the scene's; give --width too).
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Treat warnings (unknown tags, skipped lines, shapes without a surface, a missing cubemap) as errors.
+    #[arg(long)]
+    strict: bool,
+    /// A further folder to look for the scene's `env` cubemap in.
+    #[arg(long)]
+    env_dir: Vec<PathBuf>,
+    /// Ignore the scene's cubemap: escaping rays return the background colour.
+    #[arg(long)]
+    no_env: bool,
+    /// The sampler of antialiased renders.
+    #[arg(long, value_enum, default_value = "jittered")]
+    sampler: SamplerArg,
     /// Render only the pixels in [X0, X1) x [Y0, Y1) (row 0 at the top); they equal the full image's.
     /// The corners come in this order (pbrt's --pixelbounds takes X0 X1 Y0 Y1).
     #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
@@ -440,45 +488,32 @@ pub(crate) fn check_output(path: &Path, probe: bool) -> Result<(), Failure> {
 
 /// The render's options from its flags, checked against the limits (nothing depends on the scene).
 fn render_options(args: &RenderArgs) -> Result<RenderOptions, Failure> {
-    check_threads(args.threads)?;
     tile_of(args)?;
     if let Some(server) = &args.display_server {
         tev::parse_address(server).map_err(|e| bad_input(format!("--display-server {server}: {e}")))?;
     }
-    let profile = Profile::from(args.profile);
     let settings = RenderSettings {
-        max_depth: args.depth.unwrap_or(profile.default_depth()),
         seed: args.seed,
-        fresnel: if args.schlick { FresnelMode::Schlick } else { FresnelMode::Exact },
-        light_grid: args.light_grid,
-        min_weight: args.min_weight,
         crop: args.crop.as_ref().map(|c| [c[0], c[1], c[2], c[3]]),
         ..RenderSettings::default()
     };
-    let options = RenderOptions {
+    let base = RenderOptions {
         settings,
         spp: args.spp,
         strict: args.strict,
-        accel: args.accel.map(accel_kind),
         resolution: args.width.zip(args.height),
         env_dirs: args.env_dir.clone(),
         use_env: !args.no_env,
-        specular_scale: args.specular_scale,
-        area_light_size: args.area_light,
-        roughness: args.roughness,
-        aperture: args.aperture,
-        focal: args.focal,
-        shutter: args.shutter.as_ref().map(|s| (s[0], s[1])),
-        grid: raylume_accel::GridParams { k: args.grid_k, mailbox: true },
         sampler: args.sampler.into(),
-        profile,
         passes: args.passes.unwrap_or(raylume_render::DEFAULT_PASSES),
         time_limit: args.time_limit,
         noise_threshold: args.noise_threshold,
         adaptive: args.adaptive,
         pass_range: None,
         resume: None,
+        ..RenderOptions::default()
     };
+    let options = args.image.options(base)?;
     options.validate().map_err(bad_input)?;
     Ok(options)
 }
@@ -655,11 +690,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         _ => None,
     };
     let features = scene.features(&render_options).map_err(bad_input)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .stack_size(RENDER_STACK_BYTES)
-        .build()
-        .map_err(|e| Failure { code: 1, message: e.to_string() })?;
+    let pool = args.image.pool()?;
     let h = render_options.resolution.map_or(scene.view.height, |r| r.1);
     let rows = settings.crop.map_or(h, |c| c[3].min(h).saturating_sub(c[1]));
     // Rows of all passes when their number is known, else rows of the current pass.

@@ -665,6 +665,10 @@ fn converge_checks_its_options_before_rendering_the_reference() {
         (&["--passes", "0"][..], "passes 0: expected 1..="),
         (&["--time-budgets", "0"][..], "--time-budgets: expected positive numbers of seconds"),
         (&["--time-budgets", "1,nan"][..], "--time-budgets: expected positive numbers of seconds"),
+        (&["--min-weight", "2"][..], "minimum weight 2: expected a number in [0, 1]"),
+        (&["--depth", "0"][..], "depth 0: expected 1..="),
+        (&["--roughness", "2"][..], "roughness 2: expected [0, 1]"),
+        (&["--threads", "0"][..], "--threads 0: expected 1..="),
     ] {
         let run = raylume()
             .arg("converge")
@@ -678,6 +682,55 @@ fn converge_checks_its_options_before_rendering_the_reference() {
         assert!(stderr.contains(message), "{flags:?}: {stderr}");
         assert!(!stderr.contains("rendering the reference"), "{flags:?}: {stderr}");
     }
+}
+
+/// The RMSE `raylume compare` finds between two images.
+fn rmse(a: &std::path::Path, b: &std::path::Path) -> f64 {
+    let run = raylume().arg("compare").arg(a).arg(b).output().unwrap();
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{out} {}", String::from_utf8_lossy(&run.stderr));
+    out.split_whitespace().nth(1).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("{out}"))
+}
+
+/// `converge` makes its reference and the renders it measures with the flags `render` takes for
+/// the image (here `--depth 1`, which leaves the default scene's mirrors black).
+#[test]
+fn converge_renders_with_the_image_flags() {
+    let dir = temp_dir("converge-flags");
+    let size = ["--width", "24", "--height", "16"];
+    let rendered = |name: &str, flags: &[&str]| {
+        let out = dir.join(name);
+        let run = raylume().arg("render").args(size).args(["--spp", "64", "-q", "-o"]).arg(&out).args(flags).output();
+        assert!(run.unwrap().status.success());
+        out
+    };
+    let (shallow, deep) = (rendered("depth1.pfm", &["--depth", "1"]), rendered("default.pfm", &[]));
+    assert!(rmse(&shallow, &deep) > 0.1, "the mirrors make the difference");
+    let converge = |report: &str, flags: &[&str]| {
+        let report = dir.join(report);
+        let run = raylume()
+            .arg("converge")
+            .args(size)
+            .args(["--sampler", "jittered", "--spp-list", "16", "--reference-spp", "64", "-o"])
+            .arg(&report)
+            .args(flags)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{flags:?}: {}", String::from_utf8_lossy(&run.stderr));
+        report
+    };
+    // The reference it renders.
+    let report = converge("rendered", &["--depth", "1"]);
+    let reference = report.join("reference.pfm");
+    assert!(rmse(&reference, &shallow) < 0.02 && rmse(&reference, &deep) > 0.1);
+    // The renders it measures against a reference given.
+    let measured = |report: PathBuf| -> f64 {
+        let csv = std::fs::read_to_string(report.join("convergence.csv")).unwrap();
+        csv.lines().nth(1).unwrap().split(',').nth(3).unwrap().parse().unwrap()
+    };
+    let given = shallow.to_str().unwrap();
+    assert!(measured(converge("given", &["--depth", "1", "--reference", given])) < 0.03);
+    assert!(measured(converge("given-deep", &["--reference", given])) > 0.1);
 }
 
 /// The summary gives the samples per pixel each sampler really drew: split into passes of equal

@@ -116,6 +116,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn trace<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
@@ -131,6 +132,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
     }
 
     /// [`Whitted::shade`] as a call of its own, for the recursion.
+    #[allow(clippy::too_many_arguments)]
     fn shade_found<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
@@ -146,6 +148,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
 
     /// The colour along `ray` whose closest hit is `found`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn shade<const PRUNE: bool, A: Accelerator, M: Material, S: SampleSource>(
         &self,
         world: &World<A, M>,
@@ -177,6 +180,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
     /// if it is below [`RenderSettings::min_weight`]. A weight that is not a number is traced.
     /// Without `PRUNE` every ray is, and the weights passed along are not formed.
     #[inline(always)]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn traces<const PRUNE: bool>(&self, weight: f32) -> bool {
         !PRUNE || !(weight < self.min_weight)
     }
