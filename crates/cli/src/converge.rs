@@ -39,6 +39,9 @@ pub struct ConvergeArgs {
     /// Image height (give --width too).
     #[arg(long, requires = "width")]
     height: Option<u32>,
+    /// A further folder to look for the scene's `env` cubemap in.
+    #[arg(long)]
+    env_dir: Vec<PathBuf>,
     /// Ignore the scene's cubemap.
     #[arg(long)]
     no_env: bool,
@@ -57,7 +60,7 @@ pub fn run(args: ConvergeArgs) -> Result<(), Failure> {
 
 /// [`run`] on the pool of `--threads` workers.
 fn measure(args: &ConvergeArgs) -> Result<(), Failure> {
-    let options = p3f::LoadOptions { ignore_env: args.no_env, ..Default::default() };
+    let options = p3f::LoadOptions { ignore_env: args.no_env, env_dirs: args.env_dir.clone(), ..Default::default() };
     let (scene, warnings) = match &args.scene {
         Some(path) if crate::is_obj(path) => {
             let (mesh, warnings) = crate::load_mesh(path, false)?;
@@ -83,6 +86,7 @@ fn measure(args: &ConvergeArgs) -> Result<(), Failure> {
     }
     let base = args.image.options(RenderOptions {
         resolution: args.width.zip(args.height),
+        env_dirs: args.env_dir.clone(),
         use_env: !args.no_env,
         ..RenderOptions::default()
     })?;

@@ -733,6 +733,43 @@ fn converge_renders_with_the_image_flags() {
     assert!(measured(converge("given-deep", &["--reference", given])) > 0.1);
 }
 
+/// `converge` looks for a scene's cubemap in `--env-dir`, as `render` does (the message of a cubemap
+/// not found asks for it).
+#[test]
+fn converge_finds_the_cubemap_in_env_dir() {
+    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared");
+    if !shared.join("skybox").is_dir() {
+        eprintln!("skipped: the course's cubemap (../shared/skybox) is absent");
+        return;
+    }
+    let dir = temp_dir("converge-env");
+    let scene = dir.join("sky.p3f");
+    std::fs::write(
+        &scene,
+        "bclr 0.1 0.2 0.3\nenv skybox\nv\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0.01\n\
+         resolution 16 16\nl 1 1 5 1 1 1\nf 1 0 0 1 0 0 0 0 1 0 1\ns 0 0 0 0.5\n",
+    )
+    .unwrap();
+    let converge = |report: &str, flags: &[&std::ffi::OsStr]| {
+        let report = dir.join(report);
+        let run = raylume()
+            .arg("converge")
+            .arg(&scene)
+            .args(["--sampler", "jittered", "--spp-list", "1", "--reference-spp", "4", "-o"])
+            .arg(&report)
+            .args(flags)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        (report.join("reference.pfm"), String::from_utf8_lossy(&run.stderr).into_owned())
+    };
+    let (without, warned) = converge("without", &[]);
+    assert!(warned.contains("no folder 'skybox'") && warned.contains("give --env-dir"), "{warned}");
+    let (with, quiet) = converge("with", &["--env-dir".as_ref(), shared.as_os_str()]);
+    assert!(!quiet.contains("warning"), "{quiet}");
+    assert!(rmse(&without, &with) > 0.1, "the sky is seen around the ball");
+}
+
 /// The summary gives the samples per pixel each sampler really drew: split into passes of equal
 /// size (a jittered pass rounds up to a square), a count may round up, and the CLI says so.
 #[test]
