@@ -692,6 +692,14 @@ fn rmse(a: &std::path::Path, b: &std::path::Path) -> f64 {
     out.split_whitespace().nth(1).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("{out}"))
 }
 
+/// Runs `raylume converge ARGS -o REPORT`, which must succeed, and returns what it printed to stderr.
+fn converged<S: AsRef<std::ffi::OsStr>>(report: &std::path::Path, args: Vec<S>) -> String {
+    let run = raylume().arg("converge").args(&args).arg("-o").arg(report).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(run.status.success(), "{stderr}");
+    stderr
+}
+
 /// `converge` makes its reference and the renders it measures with the flags `render` takes for
 /// the image (here `--depth 1`, which leaves the default scene's mirrors black).
 #[test]
@@ -708,15 +716,8 @@ fn converge_renders_with_the_image_flags() {
     assert!(rmse(&shallow, &deep) > 0.1, "the mirrors make the difference");
     let converge = |report: &str, flags: &[&str]| {
         let report = dir.join(report);
-        let run = raylume()
-            .arg("converge")
-            .args(size)
-            .args(["--sampler", "jittered", "--spp-list", "16", "--reference-spp", "64", "-o"])
-            .arg(&report)
-            .args(flags)
-            .output()
-            .unwrap();
-        assert!(run.status.success(), "{flags:?}: {}", String::from_utf8_lossy(&run.stderr));
+        let flags = [&size[..], &["--sampler", "jittered", "--spp-list", "16", "--reference-spp", "64"], flags];
+        converged(&report, flags.concat());
         report
     };
     // The reference it renders.
@@ -752,16 +753,9 @@ fn converge_finds_the_cubemap_in_env_dir() {
     .unwrap();
     let converge = |report: &str, flags: &[&std::ffi::OsStr]| {
         let report = dir.join(report);
-        let run = raylume()
-            .arg("converge")
-            .arg(&scene)
-            .args(["--sampler", "jittered", "--spp-list", "1", "--reference-spp", "4", "-o"])
-            .arg(&report)
-            .args(flags)
-            .output()
-            .unwrap();
-        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-        (report.join("reference.pfm"), String::from_utf8_lossy(&run.stderr).into_owned())
+        let args = ["--sampler", "jittered", "--spp-list", "1", "--reference-spp", "4"].map(std::ffi::OsStr::new);
+        let stderr = converged(&report, [&[scene.as_os_str()][..], &args, flags].concat());
+        (report.join("reference.pfm"), stderr)
     };
     let (without, warned) = converge("without", &[]);
     assert!(warned.contains("no folder 'skybox'") && warned.contains("give --env-dir"), "{warned}");
