@@ -173,13 +173,13 @@ struct RenderArgs {
     /// Output image: .png (8-bit), .exr or .pfm (linear float).
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
-    /// Depth, shading rules, effects, accelerator and threads.
-    #[command(flatten)]
-    image: ImageArgs,
     /// Samples per pixel, 1..=65536 (1: the pixel centre; more with the jittered sampler: n x n
     /// strata, n = ceil(sqrt(spp))); default: the scene's `spp`, else 1.
     #[arg(long)]
     spp: Option<u32>,
+    /// Depth, shading rules, effects, accelerator and threads.
+    #[command(flatten)]
+    image: ImageArgs,
     /// Seed of the random samples.
     #[arg(long, default_value_t = 0)]
     seed: u64,
