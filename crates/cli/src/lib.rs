@@ -848,7 +848,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let total = out.build_seconds + out.render_seconds;
     let (w, h) = (out.film.width(), out.film.height());
     eprintln!(
-        "raylume: wrote {} ({w}x{h}, {} spp, effects: {features}, accel {:?}, {} threads) in {:.3} s (build {:.3} s, render {:.3} s)",
+        "raylume: wrote {} ({w}x{h}, {} spp, effects: {features}, accel {:?}, {} threads) in {:.4} s (build {:.4} s, render {:.4} s)",
         args.output.display(),
         out.samples_per_pixel,
         out.accel,
