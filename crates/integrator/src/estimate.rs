@@ -27,6 +27,7 @@
 use raylume_geometry::Vec3;
 
 use crate::Film;
+use crate::buffer::PixelBuffer;
 
 /// The `eps` of the relative MSE: `(x - r)² / (r² + eps)`, as in [`metrics::rel_mse`](crate::metrics::rel_mse).
 pub const REL_MSE_EPS: f64 = 0.01;
@@ -38,8 +39,8 @@ pub const REL_MSE_EPS: f64 = 0.01;
 pub struct Accumulator {
     /// The image: each pixel's mean over its passes.
     mean: Film,
-    m2: Vec<Vec3>,
-    passes: Vec<u32>,
+    m2: PixelBuffer<Vec3>,
+    passes: PixelBuffer<u32>,
     /// No pixel has had a pass yet.
     fresh: bool,
 }
@@ -73,12 +74,12 @@ impl std::fmt::Display for Estimate {
 }
 
 impl Accumulator {
-    /// An accumulator for `width x height` pixels, with no pass yet. Its buffers are asked of the
-    /// allocator as zeroed memory, not written over (fresh pages come zeroed from the system): a
-    /// render of one pass writes no spread.
+    /// An accumulator for `width x height` pixels, with no pass yet. Its buffers are zeroed by the
+    /// system, not written over ([`PixelBuffer`]): a render of one pass writes no spread.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        Self { mean: Film::black(width, height), m2: bytemuck::zeroed_vec(n), passes: vec![0; n], fresh: true }
+        let (m2, passes) = (PixelBuffer::zeroed(n), PixelBuffer::zeroed(n));
+        Self { mean: Film::black(width, height), m2, passes, fresh: true }
     }
 
     /// An accumulator with the state [`parts`](Accumulator::parts) gave: each pixel's mean, sum of
@@ -103,8 +104,8 @@ impl Accumulator {
         (mean.len() == n && m2.len() == n && passes.len() == n).then(|| Self {
             fresh: passes.iter().all(|&k| k == 0),
             mean: Film::from_pixels(width, height, mean),
-            m2,
-            passes,
+            m2: m2.into(),
+            passes: passes.into(),
         })
     }
 
@@ -127,14 +128,14 @@ impl Accumulator {
     /// pixel's mean. Panics if the film's size differs.
     pub fn add_pass(&mut self, pass: &Film, active: Option<&[bool]>) {
         assert_eq!((pass.width(), pass.height()), (self.width(), self.height()), "a pass of another size");
-        let mean = self.mean.pixels_mut();
+        let (mean, m2, passes) = (self.mean.pixels_mut(), &mut *self.m2, &mut *self.passes);
         for (i, &x) in pass.pixels().iter().enumerate() {
             if active.is_some_and(|a| !a[i]) {
                 continue;
             }
             self.fresh = false;
-            let k = self.passes[i] + 1;
-            self.passes[i] = k;
+            let k = passes[i] + 1;
+            passes[i] = k;
             if k == 1 {
                 // The first pass is the image as it is, bit for bit.
                 mean[i] = x;
@@ -143,7 +144,7 @@ impl Accumulator {
             let before = mean[i];
             let after = before + (x - before) / k as f32;
             mean[i] = after;
-            self.m2[i] += (x - before) * (x - after);
+            m2[i] += (x - before) * (x - after);
         }
     }
 

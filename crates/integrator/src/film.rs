@@ -3,6 +3,8 @@ use std::path::{Path, PathBuf};
 
 use raylume_geometry::Vec3;
 
+use crate::buffer::PixelBuffer;
+
 /// Why an image could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
@@ -62,7 +64,7 @@ pub const MAX_IMAGE_SIDE: u32 = 16_384;
 pub struct Film {
     width: u32,
     height: u32,
-    pixels: Vec<Vec3>,
+    pixels: PixelBuffer<Vec3>,
 }
 
 /// What an OpenEXR file carries besides the image ([`Film::write_with`]).
@@ -190,7 +192,7 @@ impl Film {
     /// A film from pixels in row order, top row first. Panics if the count is not `width * height`.
     pub fn from_pixels(width: u32, height: u32, pixels: Vec<Vec3>) -> Self {
         assert_eq!(pixels.len(), width as usize * height as usize, "pixel count does not match the size");
-        Self { width, height, pixels }
+        Self { width, height, pixels: pixels.into() }
     }
 
     /// Width in pixels.
@@ -213,10 +215,10 @@ impl Film {
         &mut self.pixels
     }
 
-    /// A black film, its memory asked of the allocator as zeroed rather than written over (fresh
-    /// pages come zeroed from the system): the render writes each pixel once.
+    /// A black film, its memory zeroed by the system rather than written over ([`PixelBuffer`]):
+    /// the render writes each pixel once.
     pub(crate) fn black(width: u32, height: u32) -> Self {
-        Self { width, height, pixels: bytemuck::zeroed_vec(width as usize * height as usize) }
+        Self { width, height, pixels: PixelBuffer::zeroed(width as usize * height as usize) }
     }
 
     /// The pixels' channels, `r g b` per pixel, top row first (for the [`metrics`](crate::metrics)).

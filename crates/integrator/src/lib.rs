@@ -28,6 +28,7 @@
 //! ```
 
 mod background;
+mod buffer;
 mod estimate;
 mod film;
 pub mod metrics;
