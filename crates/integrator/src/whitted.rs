@@ -259,7 +259,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                     let kr = self.fresnel.reflectance(cos_i.max(0.0), eta);
                     (kr, if kr < 1.0 { refract(ray.dir, ns, eta) } else { None })
                 };
-                let r = Ray::with_time(above, reflect(ray.dir, ns).normalize(), ray.time);
+                let r = Ray::with_time(above, reflect(ray.dir, ns), ray.time);
                 let all = Interval::new(0.0, f32::INFINITY);
                 // The ray that goes (or stays) inside the solid: inside a glass sphere, its hit is on
                 // the sphere or on the few shapes that reach into it (`Interiors`).
@@ -314,7 +314,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
                 let mirror = material.mirror();
                 let wm = if PRUNE { weight * mirror.max_element() } else { weight };
                 if mirror != Vec3::ZERO && self.traces::<PRUNE>(wm) {
-                    let mut dir = reflect(ray.dir, ns).normalize();
+                    let mut dir = reflect(ray.dir, ns);
                     let roughness = material.roughness();
                     // Only rough materials draw fuzz samples; a mirror reflects exactly.
                     let fuzzed = if roughness > 0.0 { fuzz(dir, n, roughness, sample) } else { Some(dir) };
@@ -629,7 +629,7 @@ impl<const SOFT: u8> Whitted<SOFT> {
             let mut mirrored = 0;
             for (s, ray) in surfaces.iter().zip(rays) {
                 if let Some(s) = s {
-                    reflections[mirrored] = Ray::with_time(s.above, reflect(ray.dir, s.ns).normalize(), ray.time);
+                    reflections[mirrored] = Ray::with_time(s.above, reflect(ray.dir, s.ns), ray.time);
                     mirrored += 1;
                 }
             }

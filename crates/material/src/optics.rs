@@ -23,7 +23,9 @@ impl FresnelMode {
     }
 }
 
-/// The mirror direction of `d` (pointing at the surface) about the unit normal `n`.
+/// The mirror direction of `d` (pointing at the surface) about the unit normal `n`. Of a unit `d` it
+/// is unit to within the rounding of its terms, and is not normalised again: a chain of mirror
+/// bounces waits on no square root for its directions (pbrt's `Reflect` does the same).
 ///
 /// ```
 /// use raylume_material::reflect;
@@ -38,7 +40,8 @@ pub fn reflect(d: Vec3A, n: Vec3A) -> Vec3A {
 
 /// The refracted direction of the unit direction `d` (pointing at the surface) through a surface with
 /// unit normal `n` facing the incoming side, for index ratio `eta = n_i / n_t` (Snell's law);
-/// `None` on total internal reflection. With equal indices (`eta == 1`), `d` itself.
+/// `None` on total internal reflection. With equal indices (`eta == 1`), `d` itself. Like
+/// [`reflect`]'s, the direction is unit to within the rounding of its terms and not normalised again.
 ///
 /// ```
 /// use raylume_material::refract;
@@ -61,7 +64,7 @@ pub fn refract(d: Vec3A, n: Vec3A, eta: f32) -> Option<Vec3A> {
         return None;
     }
     let cos_t = (1.0 - sin2_t).sqrt();
-    Some((d * eta + n * (eta * cos_i - cos_t)).normalize())
+    Some(d * eta + n * (eta * cos_i - cos_t))
 }
 
 /// The exact Fresnel reflectance of a dielectric interface for unpolarised light: `(Rs + Rp) / 2`.
@@ -129,7 +132,7 @@ pub fn fresnel_refract(d: Vec3A, n: Vec3A, cos_i: f32, eta: f32) -> (f32, Option
     let cos_t = (1.0 - sin2_t).sqrt();
     let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let rp = (eta * cos_t - cos_i) / (eta * cos_t + cos_i);
-    (0.5 * (rs * rs + rp * rp), Some((d * eta + n * (eta * cos_i - cos_t)).normalize()))
+    (0.5 * (rs * rs + rp * rp), Some(d * eta + n * (eta * cos_i - cos_t)))
 }
 
 /// Schlick's approximation of the Fresnel reflectance, `R0 + (1 - R0)(1 - cos)^5`, where the cosine

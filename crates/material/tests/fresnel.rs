@@ -198,3 +198,46 @@ fn equal_indices_neither_reflect_nor_bend() {
         }
     }
 }
+
+/// A deterministic spread of unit vectors (a Fibonacci sphere).
+fn unit_directions(count: u32) -> impl Iterator<Item = Vec3A> {
+    (0..count).map(move |i| {
+        let z = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
+        let phi = i as f32 * 2.399_963;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3A::new(r * phi.cos(), r * phi.sin(), z).normalize()
+    })
+}
+
+#[test]
+fn reflected_and_refracted_directions_stay_unit_without_normalising() {
+    // Neither direction is normalised again: of unit `d` and `n` they come out unit to within the
+    // rounding of their few terms, and a chain of bounces (each spawned ray the next one's `d`)
+    // drifts by no more than the sum of those roundings.
+    let normals: Vec<Vec3A> = unit_directions(61).collect();
+    let (mut worst_one, mut worst_chain) = (0.0f32, 0.0f32);
+    for (k, d0) in unit_directions(4001).enumerate() {
+        let mut d = d0;
+        for bounce in 0..8 {
+            let n = normals[(k * 7 + bounce * 13) % normals.len()];
+            // The normal on the side the ray comes from, as shading turns it.
+            let n = if d.dot(n) > 0.0 { -n } else { n };
+            let eta = if bounce % 2 == 0 { 1.0 / 1.6 } else { 1.6 };
+            let reflected = reflect(d, n);
+            let refracted = refract(d, n, eta);
+            let (_, shared) = fresnel_refract(d, n, (-d).dot(n), eta);
+            assert_eq!(refracted, shared);
+            for v in [Some(reflected), refracted].into_iter().flatten() {
+                let e = (v.length() - 1.0).abs();
+                if bounce == 0 {
+                    worst_one = worst_one.max(e);
+                }
+                worst_chain = worst_chain.max(e);
+            }
+            d = refracted.unwrap_or(reflected);
+        }
+    }
+    assert!(worst_one < 4.0 * f32::EPSILON, "one bounce: |v| off 1 by {worst_one}");
+    assert!(worst_chain < 24.0 * f32::EPSILON, "eight bounces: |v| off 1 by {worst_chain}");
+    assert!(worst_chain > 0.0, "the test sees no rounding at all");
+}
