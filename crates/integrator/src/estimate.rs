@@ -45,6 +45,20 @@ pub struct Accumulator {
     fresh: bool,
 }
 
+/// The estimated variance of a pixel's value per channel (`s² / K`) from its sum of squared
+/// deviations `m2` over `k` passes, `None` before its second pass.
+#[inline]
+fn variance(m2: Vec3, k: u32) -> Option<Vec3> {
+    (k >= 2).then(|| m2 / (k as f32 * (k - 1) as f32))
+}
+
+/// The variance of one pass's value of a pixel (the passes' sample variance `s²`, averaged over
+/// channels) from `m2` over `k` passes, `None` before its second pass.
+#[inline]
+fn pass_variance(m2: Vec3, k: u32) -> Option<f32> {
+    (k >= 2).then(|| m2.element_sum() / (3.0 * (k - 1) as f32))
+}
+
 /// The estimated error of an image against the one its render converges to: the mean over pixels
 /// and channels of the variance of each pixel's value, as [`metrics::mse`](crate::metrics::mse)
 /// would measure it against a perfect reference.
@@ -202,21 +216,20 @@ impl Accumulator {
 
     /// The estimated variance of pixel `i`'s value per channel (`s² / K`), `None` before its second pass.
     pub fn variance(&self, i: usize) -> Option<Vec3> {
-        let k = self.passes[i];
-        (k >= 2).then(|| self.m2[i] / (k as f32 * (k - 1) as f32))
+        variance(self.m2[i], self.passes[i])
     }
 
     /// The variance of one pass's value of pixel `i` (the passes' sample variance `s²`, averaged
     /// over channels), `None` before its second pass.
     pub fn pass_variance(&self, i: usize) -> Option<f32> {
-        let k = self.passes[i];
-        (k >= 2).then(|| self.m2[i].element_sum() / (3.0 * (k - 1) as f32))
+        pass_variance(self.m2[i], self.passes[i])
     }
 
     /// The estimated variance of each pixel's value per channel, as an image (for an EXR's
     /// variance channels), `None` until every pixel has had two passes.
     pub fn variance_film(&self) -> Option<Film> {
-        let pixels = (0..self.passes.len()).map(|i| self.variance(i)).collect::<Option<Vec<_>>>()?;
+        let pixels =
+            self.m2.iter().zip(self.passes.iter()).map(|(&m2, &k)| variance(m2, k)).collect::<Option<Vec<_>>>()?;
         Some(Film::from_pixels(self.width(), self.height(), pixels))
     }
 
@@ -228,8 +241,9 @@ impl Accumulator {
         }
         let n = self.passes.len() as f64;
         let (mut sum, mut sum_sq, mut rel) = (0.0f64, 0.0f64, 0.0f64);
-        for (i, m) in self.mean.pixels().iter().enumerate() {
-            let v = self.variance(i).expect("every pixel has two passes");
+        let pixels = self.mean.pixels().iter().zip(self.m2.iter()).zip(self.passes.iter());
+        for ((m, &m2), &k) in pixels {
+            let v = variance(m2, k).expect("every pixel has two passes");
             let per_pixel = v.element_sum() as f64 / 3.0;
             sum += per_pixel;
             sum_sq += per_pixel * per_pixel;
@@ -263,7 +277,9 @@ impl Accumulator {
             return None;
         }
         let (w, h) = (self.width() as usize, self.height() as usize);
-        let spread: Vec<f32> = (0..w * h).map(|i| self.pass_variance(i).expect("two passes")).collect();
+        let passes = &*self.passes;
+        let spread: Vec<f32> =
+            self.m2.iter().zip(passes).map(|(&m2, &k)| pass_variance(m2, k).expect("two passes")).collect();
         let gain: Vec<f64> = (0..w * h)
             .map(|i| {
                 let (x, y) = (i % w, i / w);
@@ -274,7 +290,7 @@ impl Accumulator {
                         count += 1.0;
                     }
                 }
-                let k = self.passes[i] as f64;
+                let k = passes[i] as f64;
                 sum / count / (k * (k + 1.0))
             })
             .collect();
