@@ -199,24 +199,14 @@ fn equal_indices_neither_reflect_nor_bend() {
     }
 }
 
-/// A deterministic spread of unit vectors (a Fibonacci sphere).
-fn unit_directions(count: u32) -> impl Iterator<Item = Vec3A> {
-    (0..count).map(move |i| {
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
-        let phi = i as f32 * 2.399_963;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3A::new(r * phi.cos(), r * phi.sin(), z).normalize()
-    })
-}
-
 #[test]
 fn reflected_and_refracted_directions_stay_unit_without_normalising() {
     // Neither direction is normalised again: of unit `d` and `n` they come out unit to within the
     // rounding of their few terms, and a chain of bounces (each spawned ray the next one's `d`)
     // drifts by no more than the sum of those roundings.
-    let normals: Vec<Vec3A> = unit_directions(61).collect();
+    let normals: Vec<Vec3A> = directions(61).collect();
     let (mut worst_one, mut worst_chain) = (0.0f32, 0.0f32);
-    for (k, d0) in unit_directions(4001).enumerate() {
+    for (k, d0) in directions(4001).enumerate() {
         let mut d = d0;
         for bounce in 0..8 {
             let n = normals[(k * 7 + bounce * 13) % normals.len()];
