@@ -11,11 +11,13 @@
 //! ```
 
 mod aabb;
+mod buffer;
 mod ray;
 pub mod sampling;
 mod shapes;
 
 pub use aabb::Aabb;
+pub use buffer::LargeBuffer;
 pub use glam::{Vec2, Vec3, Vec3A};
 pub use ray::{Interval, Ray};
 pub use shapes::{AaBox, Cone, MovingSphere, Plane, Sphere, Triangle, is_plane_normal};

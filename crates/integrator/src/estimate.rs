@@ -27,7 +27,7 @@
 use raylume_geometry::Vec3;
 
 use crate::Film;
-use crate::buffer::PixelBuffer;
+use raylume_geometry::LargeBuffer;
 
 /// The `eps` of the relative MSE: `(x - r)² / (r² + eps)`, as in [`metrics::rel_mse`](crate::metrics::rel_mse).
 pub const REL_MSE_EPS: f64 = 0.01;
@@ -39,8 +39,8 @@ pub const REL_MSE_EPS: f64 = 0.01;
 pub struct Accumulator {
     /// The image: each pixel's mean over its passes.
     mean: Film,
-    m2: PixelBuffer<Vec3>,
-    passes: PixelBuffer<u32>,
+    m2: LargeBuffer<Vec3>,
+    passes: LargeBuffer<u32>,
     /// No pixel has had a pass yet.
     fresh: bool,
 }
@@ -89,10 +89,10 @@ impl std::fmt::Display for Estimate {
 
 impl Accumulator {
     /// An accumulator for `width x height` pixels, with no pass yet. Its buffers are zeroed by the
-    /// system, not written over ([`PixelBuffer`]): a render of one pass writes no spread.
+    /// system, not written over ([`LargeBuffer`]): a render of one pass writes no spread.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        let (m2, passes) = (PixelBuffer::zeroed(n), PixelBuffer::zeroed(n));
+        let (m2, passes) = (LargeBuffer::zeroed(n), LargeBuffer::zeroed(n));
         Self { mean: Film::black(width, height), m2, passes, fresh: true }
     }
 

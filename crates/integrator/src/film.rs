@@ -3,7 +3,7 @@ use std::path::{Path, PathBuf};
 
 use raylume_geometry::Vec3;
 
-use crate::buffer::PixelBuffer;
+use raylume_geometry::LargeBuffer;
 
 /// Why an image could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -64,7 +64,7 @@ pub const MAX_IMAGE_SIDE: u32 = 16_384;
 pub struct Film {
     width: u32,
     height: u32,
-    pixels: PixelBuffer<Vec3>,
+    pixels: LargeBuffer<Vec3>,
 }
 
 /// What an OpenEXR file carries besides the image ([`Film::write_with`]).
@@ -215,10 +215,10 @@ impl Film {
         &mut self.pixels
     }
 
-    /// A black film, its memory zeroed by the system rather than written over ([`PixelBuffer`]):
+    /// A black film, its memory zeroed by the system rather than written over ([`LargeBuffer`]):
     /// the render writes each pixel once.
     pub(crate) fn black(width: u32, height: u32) -> Self {
-        Self { width, height, pixels: PixelBuffer::zeroed(width as usize * height as usize) }
+        Self { width, height, pixels: LargeBuffer::zeroed(width as usize * height as usize) }
     }
 
     /// The pixels' channels, `r g b` per pixel, top row first (for the [`metrics`](crate::metrics)).

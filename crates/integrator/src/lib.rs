@@ -28,7 +28,6 @@
 //! ```
 
 mod background;
-mod buffer;
 mod estimate;
 mod film;
 pub mod metrics;

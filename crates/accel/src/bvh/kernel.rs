@@ -2,7 +2,7 @@
 //! ([`TriangleTree::visit`]): each query is written once, generic over a [`Kernel`], and compiled
 //! once per kernel, with no dynamic dispatch per ray.
 
-use raylume_geometry::{Aabb, Ray, Triangle, Vec3A};
+use raylume_geometry::{Aabb, LargeBuffer, Ray, Triangle, Vec3A};
 use raylume_intersect::{TriangleHit, unit_normal};
 
 use super::build::{BuildItem, BvhBuild, build_binary};
@@ -138,9 +138,9 @@ impl TriangleTree {
 #[derive(Clone, Debug)]
 pub(super) struct Triangles {
     pub tree: TriangleTree,
-    pub leaves: Vec<Leaf>,
-    pub leaf_bounds: Vec<[f32; 6]>,
-    pub leaf_normals: Vec<LeafNormals>,
+    pub leaves: LargeBuffer<Leaf>,
+    pub leaf_bounds: LargeBuffer<[f32; 6]>,
+    pub leaf_normals: LargeBuffer<LeafNormals>,
 }
 
 /// The [`unit_normal`] of each triangle of a leaf, by candidate bit (unused bits hold zeros).
@@ -171,19 +171,22 @@ impl KernelVisitor for Summary {
 }
 
 /// Builds the tree of `W`-wide nodes over the binary tree `bin` of `items` (triangle `i` of the
-/// items is `tris[i]`): the leaves' triangles and boxes into `leaves` and `leaf_bounds`.
+/// items is `tris[i]`): the leaves' triangles and boxes into `leaves` and `leaf_bounds`, one slot for
+/// each leaf of `bin`, in the order the walk down the tree meets them.
 fn collapse<const W: usize>(
     bin: &[super::build::Node],
     items: &[BuildItem],
     tris: &[(Triangle, u32)],
-    leaves: &mut Vec<Leaf>,
-    leaf_bounds: &mut Vec<[f32; 6]>,
+    leaves: &mut [Leaf],
+    leaf_bounds: &mut [[f32; 6]],
 ) -> WideTree<W> {
+    let mut next = 0;
     WideTree::collapse(bin, |first: usize, count: usize, bounds: Aabb| {
-        leaves.push(Leaf::new(items[first..first + count].iter().map(|it| tris[it.index as usize])));
+        leaves[next] = Leaf::new(items[first..first + count].iter().map(|it| tris[it.index as usize]));
         let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
-        leaf_bounds.push([min[0], min[1], min[2], max[0], max[1], max[2]]);
-        leaf_ref(leaves.len() - 1, count)
+        leaf_bounds[next] = [min[0], min[1], min[2], max[0], max[1], max[2]];
+        next += 1;
+        leaf_ref(next - 1, count)
     })
 }
 
@@ -210,8 +213,12 @@ impl Triangles {
         // registers, else four.
         let block = if simd.is_some() { 2 * LANES } else { LANES };
         let bin = build_binary(items, method, block, MAX_TRIANGLE_LEAF);
-        let mut leaves = Vec::with_capacity(items.len().div_ceil(MAX_TRIANGLE_LEAF));
-        let mut leaf_bounds = Vec::with_capacity(leaves.capacity());
+        // The leaves' arrays are the largest part of a large mesh's tree, and a walk jumps between
+        // them: on huge pages, where the system has them, far fewer of those jumps miss the
+        // translation buffers.
+        let leaf_count = bin.iter().filter(|node| node.count > 0).count();
+        let mut leaves = LargeBuffer::zeroed(leaf_count);
+        let mut leaf_bounds = LargeBuffer::zeroed(leaf_count);
         let leaf_bytes =
             |leaves: &[Leaf], bounds: &[[f32; 6]]| std::mem::size_of_val(leaves) + std::mem::size_of_val(bounds);
         let tree = match simd {
@@ -227,8 +234,11 @@ impl Triangles {
                 TriangleTree::Portable(tree)
             }
         };
-        let leaf_normals = leaves.iter().map(leaf_normals).collect();
-        Self { tree, leaves, leaf_bounds, leaf_normals }
+        let mut normals = LargeBuffer::zeroed(leaf_count);
+        for (n, leaf) in normals.iter_mut().zip(leaves.iter()) {
+            *n = leaf_normals(leaf);
+        }
+        Self { tree, leaves, leaf_bounds, leaf_normals: normals }
     }
 
     /// The box of every triangle.
@@ -244,9 +254,9 @@ impl Triangles {
     /// Bytes of the nodes, the leaves, their boxes and their normals.
     pub fn bytes(&self) -> usize {
         self.tree.visit(Summary).2
-            + std::mem::size_of_val(self.leaves.as_slice())
-            + std::mem::size_of_val(self.leaf_bounds.as_slice())
-            + std::mem::size_of_val(self.leaf_normals.as_slice())
+            + std::mem::size_of_val(&*self.leaves)
+            + std::mem::size_of_val(&*self.leaf_bounds)
+            + std::mem::size_of_val(&*self.leaf_normals)
     }
 
     /// The kernel that walks the tree.
@@ -266,7 +276,8 @@ impl Triangles {
                 self.leaves.len()
             ));
         }
-        if let Some(l) = self.leaves.iter().zip(&self.leaf_normals).position(|(leaf, n)| leaf_normals(leaf) != *n) {
+        if let Some(l) = self.leaves.iter().zip(self.leaf_normals.iter()).position(|(leaf, n)| leaf_normals(leaf) != *n)
+        {
             return Err(format!("leaf {l}: its normals are not its triangles'"));
         }
         let mut reached = vec![0usize; self.leaves.len()];

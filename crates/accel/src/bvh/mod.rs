@@ -1169,6 +1169,38 @@ mod tests {
         assert!(hits[0] > 1000 && hits[1] > 1000, "the rays meet both triangles and spheres: {hits:?}");
     }
 
+    /// A large mesh's leaves live on huge pages where the system has them (as do their boxes and
+    /// normals, from a mebibyte); the same tree with them on the heap (a clone's) answers every query
+    /// bit for bit.
+    #[test]
+    fn a_large_mesh_answers_from_its_leaves_on_huge_pages_as_from_the_heap() {
+        let prims = random_scene(13, 40_000, 0.3);
+        let rays: Vec<Ray> = random_scene(14, 20_000, 20.0)
+            .iter()
+            .filter_map(Primitive::as_triangle)
+            .map(|t| Ray::new(t.p[1] * 2.0, t.p[0] - t.p[1] * 2.0))
+            .collect();
+        for kernel in [BvhKernel::Portable, BvhKernel::best()] {
+            let mapped = Bvh::with_kernel(prims.clone(), Interval::new(0.0, 0.0), BvhBuild::Sah, kernel);
+            let heap = mapped.clone();
+            let (m, h) = (mapped.triangles.as_ref().unwrap(), heap.triangles.as_ref().unwrap());
+            #[cfg(target_os = "linux")]
+            assert!(m.leaves.is_mapped(), "{} bytes of leaves", size_of_val(&*m.leaves));
+            assert!(!h.leaves.is_mapped() && !h.leaf_bounds.is_mapped() && !h.leaf_normals.is_mapped());
+            assert_eq!((mapped.validate(), heap.validate()), (Ok(()), Ok(())));
+            let mut hits = 0;
+            for ray in &rays {
+                let bits =
+                    |h: Option<PrimitiveHit>| h.map(|h| (h.primitive, h.hit.t.to_bits(), h.hit.normal.to_array()));
+                let a = mapped.closest_hit(ray, Interval::POSITIVE);
+                assert_eq!(bits(a), bits(heap.closest_hit(ray, Interval::POSITIVE)));
+                assert_eq!(mapped.occluded(ray, 10.0), heap.occluded(ray, 10.0));
+                hits += a.is_some() as usize;
+            }
+            assert!(hits > 5000, "the rays meet the triangles ({hits} hits)");
+        }
+    }
+
     /// A walk that prefetches the next entry of its stack (as trees larger than [`PREFETCH_BYTES`] do)
     /// answers every query as the same tree without prefetches, bit for bit.
     #[test]

@@ -68,7 +68,7 @@ pub(super) const LEAF_LANES: usize = 2 * LANES;
 /// a coordinate of all eight is one 32-byte row (the four-lane filter takes each half in turn), and
 /// their input indices; aligned to a cache line so that a leaf spans five lines wherever the allocator
 /// puts them. Unused lanes hold zeros and no id.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(64))]
 pub(super) struct Leaf {
     pub v: [[[f32; LEAF_LANES]; 3]; 3],

@@ -1,17 +1,28 @@
-//! Per-pixel buffers that start zeroed: a film's pixels, an accumulator's spread and passes.
+//! Large arrays of plain values: a film's pixels, an accumulator's spread and passes, a BVH's leaves.
 //!
-//! A render writes each pixel of a fresh film once, and every page it writes is mapped by the system
-//! the first time, a fault per 4 KiB page (768 for a 512x512 film of three f32 channels). Where the
-//! system has transparent huge pages (Linux), a buffer of a mebibyte or more is mapped on its own,
-//! aligned to 2 MiB and marked for huge pages: a 2 MiB page is one fault, and a small scene's render
-//! no longer spends a twentieth of its time on them. Elsewhere, and where the mapping fails, the buffer
-//! is ordinary zeroed memory from the allocator.
+//! A fresh array is mapped by the system page by page the first time each page is written or read: a
+//! fault per 4 KiB page (768 for a 512x512 film of three f32 channels), and a miss in the translation
+//! buffers for every page a walk of a large BVH jumps to. Where the system has transparent huge pages
+//! (Linux), an array of a mebibyte or more is mapped on its own, aligned to 2 MiB and marked for huge
+//! pages: a 2 MiB page is one fault and one translation. Elsewhere, and where the mapping fails, the
+//! array is ordinary zeroed memory from the allocator.
 
 use bytemuck::Pod;
 use std::ops::{Deref, DerefMut};
 
-/// A buffer of `T` that starts zeroed (or as the vector it is made from), read and written as a slice.
-pub(crate) struct PixelBuffer<T: Pod> {
+/// An array of `T` that starts zeroed (or as the values it is made from), read and written as a slice.
+///
+/// Hot loops take the slice once (`let values: &[T] = &buffer;`) and index that: each dereference
+/// looks at where the values live.
+///
+/// ```
+/// use raylume_geometry::LargeBuffer;
+/// let mut counts = LargeBuffer::<u32>::zeroed(1 << 20);
+/// counts[7] = 3;
+/// let values: &[u32] = &counts;
+/// assert_eq!((values.len(), values[7], values.iter().sum::<u32>()), (1 << 20, 3, 3));
+/// ```
+pub struct LargeBuffer<T: Pod> {
     storage: Storage<T>,
 }
 
@@ -35,14 +46,21 @@ const HUGE_PAGE: usize = 2 << 20;
 #[cfg(target_os = "linux")]
 const LEAST_MAPPED: usize = 1 << 20;
 
-impl<T: Pod> PixelBuffer<T> {
+impl<T: Pod> LargeBuffer<T> {
     /// `len` zeroed values.
-    pub(crate) fn zeroed(len: usize) -> Self {
+    pub fn zeroed(len: usize) -> Self {
         #[cfg(target_os = "linux")]
         if let Some(storage) = Self::mapped(len) {
             return Self { storage };
         }
         Self { storage: Storage::Heap(bytemuck::zeroed_vec(len)) }
+    }
+
+    /// A copy of `values`, on huge pages where [`LargeBuffer::zeroed`] would put it there.
+    pub fn copied(values: &[T]) -> Self {
+        let mut buffer = Self::zeroed(values.len());
+        buffer.copy_from_slice(values);
+        buffer
     }
 
     /// A mapping of its own for `len` values, marked for huge pages, if the buffer is large enough
@@ -63,20 +81,19 @@ impl<T: Pod> PixelBuffer<T> {
         Some(Storage::Mapped { map, offset, len })
     }
 
-    /// Whether the values live in a mapping of their own.
-    #[cfg(test)]
-    fn is_mapped(&self) -> bool {
+    /// Whether the values live in a mapping of their own (on huge pages where the system has them).
+    pub fn is_mapped(&self) -> bool {
         !matches!(self.storage, Storage::Heap(_))
     }
 }
 
-impl<T: Pod> From<Vec<T>> for PixelBuffer<T> {
+impl<T: Pod> From<Vec<T>> for LargeBuffer<T> {
     fn from(values: Vec<T>) -> Self {
         Self { storage: Storage::Heap(values) }
     }
 }
 
-impl<T: Pod> Deref for PixelBuffer<T> {
+impl<T: Pod> Deref for LargeBuffer<T> {
     type Target = [T];
 
     #[inline]
@@ -89,7 +106,7 @@ impl<T: Pod> Deref for PixelBuffer<T> {
     }
 }
 
-impl<T: Pod> DerefMut for PixelBuffer<T> {
+impl<T: Pod> DerefMut for LargeBuffer<T> {
     #[inline]
     fn deref_mut(&mut self) -> &mut [T] {
         match &mut self.storage {
@@ -102,19 +119,19 @@ impl<T: Pod> DerefMut for PixelBuffer<T> {
     }
 }
 
-impl<T: Pod> Clone for PixelBuffer<T> {
+impl<T: Pod> Clone for LargeBuffer<T> {
     fn clone(&self) -> Self {
         Self::from(self.to_vec())
     }
 }
 
-impl<T: Pod + PartialEq> PartialEq for PixelBuffer<T> {
+impl<T: Pod + PartialEq> PartialEq for LargeBuffer<T> {
     fn eq(&self, other: &Self) -> bool {
         **self == **other
     }
 }
 
-impl<T: Pod + std::fmt::Debug> std::fmt::Debug for PixelBuffer<T> {
+impl<T: Pod + std::fmt::Debug> std::fmt::Debug for LargeBuffer<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         (**self).fmt(f)
     }
@@ -128,7 +145,7 @@ mod tests {
     fn a_zeroed_buffer_is_zero_and_holds_what_is_written() {
         // Below, at and well above the size that gets a mapping of its own.
         for len in [0, 1, 1000, (1 << 20) / 4 - 1, (1 << 20) / 4, 3 << 20, (5 << 20) + 17] {
-            let mut b = PixelBuffer::<u32>::zeroed(len);
+            let mut b = LargeBuffer::<u32>::zeroed(len);
             assert_eq!(b.len(), len);
             assert!(b.iter().all(|&v| v == 0), "{len} values not all zero");
             for (i, v) in b.iter_mut().enumerate() {
@@ -137,7 +154,7 @@ mod tests {
             assert!(b.iter().enumerate().all(|(i, &v)| v == i as u32 ^ 0x5a5a_5a5a));
             let copy = b.clone();
             assert_eq!(copy, b);
-            assert_eq!(copy.to_vec(), PixelBuffer::from(b.to_vec()).to_vec());
+            assert_eq!(copy.to_vec(), LargeBuffer::from(b.to_vec()).to_vec());
             if len > 0 {
                 b[len - 1] ^= 1;
                 assert_ne!(copy, b);
@@ -148,9 +165,9 @@ mod tests {
     #[test]
     #[cfg(target_os = "linux")]
     fn large_buffers_get_a_mapping_on_a_huge_page_boundary() {
-        assert!(!PixelBuffer::<u32>::zeroed(1000).is_mapped());
-        assert!(!PixelBuffer::<u32>::from(vec![0; 1 << 20]).is_mapped());
-        let b = PixelBuffer::<glam::Vec3>::zeroed(512 * 512);
+        assert!(!LargeBuffer::<u32>::zeroed(1000).is_mapped());
+        assert!(!LargeBuffer::<u32>::from(vec![0; 1 << 20]).is_mapped());
+        let b = LargeBuffer::<glam::Vec3>::zeroed(512 * 512);
         assert!(b.is_mapped());
         assert_eq!(b.as_ptr() as usize % HUGE_PAGE, 0);
         assert_eq!(b.len(), 512 * 512);
