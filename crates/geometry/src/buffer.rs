@@ -1,11 +1,16 @@
 //! Large arrays of plain values: a film's pixels, an accumulator's spread and passes, a BVH's leaves.
 //!
-//! A fresh array is mapped by the system page by page the first time each page is written or read: a
-//! fault per 4 KiB page (768 for a 512x512 film of three f32 channels), and a miss in the translation
-//! buffers for every page a walk of a large BVH jumps to. Where the system has transparent huge pages
-//! (Linux), an array of a mebibyte or more is mapped on its own, aligned to 2 MiB and marked for huge
-//! pages: a 2 MiB page is one fault and one translation. Elsewhere, and where the mapping fails, the
-//! array is ordinary zeroed memory from the allocator.
+//! A large array starts as zeroed memory that the system maps page by page where it is first written
+//! or read: on Linux, an array of a mebibyte or more gets an anonymous mapping of its own, whatever the
+//! allocator's state (glibc serves large requests from memory it already holds, after large frees,
+//! and clears it by hand). Elsewhere, and where the mapping fails, the array is the allocator's zeroed
+//! memory.
+//!
+//! A walk of a large BVH jumps between pages, and with 4 KiB pages most of its jumps miss the
+//! translation buffers once its arrays exceed their reach. [`LargeBuffer::zeroed_on_huge_pages`]
+//! puts such an array on 2 MiB pages where the system has transparent huge pages. A fresh huge page
+//! is zeroed whole on its first write, and on a virtual machine whose host takes freed memory back
+//! that can cost milliseconds per page: huge pages pay only where many queries read the array.
 
 use bytemuck::Pod;
 use std::ops::{Deref, DerefMut};
@@ -37,47 +42,68 @@ enum Storage<T> {
     },
 }
 
-/// The size of a huge page: a mapping's values start on such a boundary.
+/// The size of a huge page: the values of a mapping on huge pages start on such a boundary.
 #[cfg(target_os = "linux")]
 const HUGE_PAGE: usize = 2 << 20;
 
-/// The smallest buffer, in bytes, that gets a mapping of its own: below it, a huge page's zeroing
-/// costs more than the small pages' faults it saves.
+/// The smallest buffer, in bytes, that gets a mapping of its own.
 #[cfg(target_os = "linux")]
 const LEAST_MAPPED: usize = 1 << 20;
 
 impl<T: Pod> LargeBuffer<T> {
     /// `len` zeroed values.
     pub fn zeroed(len: usize) -> Self {
+        Self::zeroed_with(len, false)
+    }
+
+    /// `len` zeroed values, on huge pages where the system has them (Linux's transparent huge pages,
+    /// for a buffer of a mebibyte or more): for an array that many queries read at random, such as a
+    /// large BVH's leaves.
+    ///
+    /// ```
+    /// use raylume_geometry::LargeBuffer;
+    /// let leaves = LargeBuffer::<[f32; 16]>::zeroed_on_huge_pages(1 << 16);
+    /// assert!(leaves.iter().all(|leaf| leaf.iter().all(|&x| x == 0.0)));
+    /// ```
+    pub fn zeroed_on_huge_pages(len: usize) -> Self {
+        Self::zeroed_with(len, true)
+    }
+
+    fn zeroed_with(len: usize, huge: bool) -> Self {
         #[cfg(target_os = "linux")]
-        if let Some(storage) = Self::mapped(len) {
+        if let Some(storage) = Self::mapped(len, huge) {
             return Self { storage };
         }
+        let _ = huge;
         Self { storage: Storage::Heap(bytemuck::zeroed_vec(len)) }
     }
 
-    /// A copy of `values`, on huge pages where [`LargeBuffer::zeroed`] would put it there.
+    /// A copy of `values`, in memory as [`LargeBuffer::zeroed`] gives it.
     pub fn copied(values: &[T]) -> Self {
         let mut buffer = Self::zeroed(values.len());
         buffer.copy_from_slice(values);
         buffer
     }
 
-    /// A mapping of its own for `len` values, marked for huge pages, if the buffer is large enough
-    /// and the system gives one.
+    /// A mapping of its own for `len` values, if the buffer is large enough and the system gives one;
+    /// with `huge`, its values on a huge page boundary and the mapping marked for huge pages.
     #[cfg(target_os = "linux")]
-    fn mapped(len: usize) -> Option<Storage<T>> {
+    fn mapped(len: usize, huge: bool) -> Option<Storage<T>> {
         let bytes = len.checked_mul(size_of::<T>())?;
-        if bytes < LEAST_MAPPED || align_of::<T>() > HUGE_PAGE {
+        if bytes < LEAST_MAPPED || align_of::<T>() > 4096 {
             return None;
         }
-        // One huge page more than the values need, so that they can start on a boundary.
-        let size = bytes.checked_next_multiple_of(HUGE_PAGE)?.checked_add(HUGE_PAGE)?;
+        // On huge pages, one huge page more than the values need, so that they can start on a boundary.
+        let size = if huge { bytes.checked_next_multiple_of(HUGE_PAGE)?.checked_add(HUGE_PAGE)? } else { bytes };
         let map = memmap2::MmapOptions::new().len(size).map_anon().ok()?;
-        let start = map.as_ptr() as usize;
-        let offset = start.next_multiple_of(HUGE_PAGE) - start;
-        // Without transparent huge pages the advice fails, and the pages are ordinary ones.
-        let _ = map.advise(memmap2::Advice::HugePage);
+        let offset = if huge {
+            let start = map.as_ptr() as usize;
+            // Without transparent huge pages the advice fails, and the pages are ordinary ones.
+            let _ = map.advise(memmap2::Advice::HugePage);
+            start.next_multiple_of(HUGE_PAGE) - start
+        } else {
+            0
+        };
         Some(Storage::Mapped { map, offset, len })
     }
 
@@ -144,8 +170,12 @@ mod tests {
     #[test]
     fn a_zeroed_buffer_is_zero_and_holds_what_is_written() {
         // Below, at and well above the size that gets a mapping of its own.
-        for len in [0, 1, 1000, (1 << 20) / 4 - 1, (1 << 20) / 4, 3 << 20, (5 << 20) + 17] {
-            let mut b = LargeBuffer::<u32>::zeroed(len);
+        for (len, huge) in [0, 1, 1000, (1 << 20) / 4 - 1, (1 << 20) / 4, 3 << 20, (5 << 20) + 17]
+            .into_iter()
+            .flat_map(|len| [(len, false), (len, true)])
+        {
+            let mut b =
+                if huge { LargeBuffer::<u32>::zeroed_on_huge_pages(len) } else { LargeBuffer::<u32>::zeroed(len) };
             assert_eq!(b.len(), len);
             assert!(b.iter().all(|&v| v == 0), "{len} values not all zero");
             for (i, v) in b.iter_mut().enumerate() {
@@ -164,12 +194,14 @@ mod tests {
 
     #[test]
     #[cfg(target_os = "linux")]
-    fn large_buffers_get_a_mapping_on_a_huge_page_boundary() {
+    fn large_buffers_get_a_mapping_of_their_own_on_huge_pages_if_asked() {
         assert!(!LargeBuffer::<u32>::zeroed(1000).is_mapped());
+        assert!(!LargeBuffer::<u32>::zeroed_on_huge_pages(1000).is_mapped());
         assert!(!LargeBuffer::<u32>::from(vec![0; 1 << 20]).is_mapped());
-        let b = LargeBuffer::<glam::Vec3>::zeroed(512 * 512);
-        assert!(b.is_mapped());
-        assert_eq!(b.as_ptr() as usize % HUGE_PAGE, 0);
-        assert_eq!(b.len(), 512 * 512);
+        let small_pages = LargeBuffer::<glam::Vec3>::zeroed(512 * 512);
+        let huge_pages = LargeBuffer::<glam::Vec3>::zeroed_on_huge_pages(512 * 512);
+        assert!(small_pages.is_mapped() && huge_pages.is_mapped());
+        assert_eq!(huge_pages.as_ptr() as usize % HUGE_PAGE, 0);
+        assert_eq!((small_pages.len(), huge_pages.len()), (512 * 512, 512 * 512));
     }
 }

@@ -193,13 +193,14 @@ fn collapse<const W: usize>(
 impl Triangles {
     /// The tree over `items` (not empty; item `i` is triangle `tris[i]`), built with `method` for
     /// `kernel` (the portable one where the CPU does not run it); walks prefetch when the structure
-    /// is larger than `prefetch_bytes`.
+    /// is larger than `large_bytes`, and the leaves' arrays live on huge pages when the leaves and their
+    /// boxes alone are.
     pub fn build(
         items: &mut [BuildItem],
         tris: &[(Triangle, u32)],
         method: BvhBuild,
         kernel: BvhKernel,
-        prefetch_bytes: usize,
+        large_bytes: usize,
     ) -> Self {
         #[cfg(target_arch = "x86_64")]
         let simd = pulp::x86::V3::try_new().filter(|_| kernel == BvhKernel::Avx2);
@@ -213,28 +214,33 @@ impl Triangles {
         // registers, else four.
         let block = if simd.is_some() { 2 * LANES } else { LANES };
         let bin = build_binary(items, method, block, MAX_TRIANGLE_LEAF);
-        // The leaves' arrays are the largest part of a large mesh's tree, and a walk jumps between
-        // them: on huge pages, where the system has them, far fewer of those jumps miss the
-        // translation buffers.
+        // The leaves' arrays are the largest part of a mesh's tree, and a walk jumps between them: on
+        // huge pages, where the system has them, far fewer of those jumps miss the translation buffers
+        // once the tree is beyond their reach. A smaller tree does not gain that, and a fresh huge page
+        // is zeroed whole (on some virtual machines, slowly), so it stays on ordinary pages.
         let leaf_count = bin.iter().filter(|node| node.count > 0).count();
-        let mut leaves = LargeBuffer::zeroed(leaf_count);
-        let mut leaf_bounds = LargeBuffer::zeroed(leaf_count);
+        let large = leaf_count.saturating_mul(size_of::<Leaf>() + size_of::<[f32; 6]>()) > large_bytes;
+        fn zeroed<T: bytemuck::Pod>(len: usize, huge: bool) -> LargeBuffer<T> {
+            if huge { LargeBuffer::zeroed_on_huge_pages(len) } else { LargeBuffer::zeroed(len) }
+        }
+        let mut leaves = zeroed(leaf_count, large);
+        let mut leaf_bounds = zeroed(leaf_count, large);
         let leaf_bytes =
             |leaves: &[Leaf], bounds: &[[f32; 6]]| std::mem::size_of_val(leaves) + std::mem::size_of_val(bounds);
         let tree = match simd {
             #[cfg(target_arch = "x86_64")]
             Some(simd) => {
                 let mut tree = collapse::<8>(&bin, items, tris, &mut leaves, &mut leaf_bounds);
-                tree.prefetch_when_larger(tree.bytes() + leaf_bytes(&leaves, &leaf_bounds), prefetch_bytes);
+                tree.prefetch_when_larger(tree.bytes() + leaf_bytes(&leaves, &leaf_bounds), large_bytes);
                 TriangleTree::Avx2(simd, tree)
             }
             _ => {
                 let mut tree = collapse::<4>(&bin, items, tris, &mut leaves, &mut leaf_bounds);
-                tree.prefetch_when_larger(tree.bytes() + leaf_bytes(&leaves, &leaf_bounds), prefetch_bytes);
+                tree.prefetch_when_larger(tree.bytes() + leaf_bytes(&leaves, &leaf_bounds), large_bytes);
                 TriangleTree::Portable(tree)
             }
         };
-        let mut normals = LargeBuffer::zeroed(leaf_count);
+        let mut normals = zeroed(leaf_count, large);
         for (n, leaf) in normals.iter_mut().zip(leaves.iter()) {
             *n = leaf_normals(leaf);
         }
