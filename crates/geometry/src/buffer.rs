@@ -78,13 +78,6 @@ impl<T: Pod> LargeBuffer<T> {
         Self { storage: Storage::Heap(bytemuck::zeroed_vec(len)) }
     }
 
-    /// A copy of `values`, in memory as [`LargeBuffer::zeroed`] gives it.
-    pub fn copied(values: &[T]) -> Self {
-        let mut buffer = Self::zeroed(values.len());
-        buffer.copy_from_slice(values);
-        buffer
-    }
-
     /// A mapping of its own for `len` values, if the buffer is large enough and the system gives one;
     /// with `huge`, its values on a huge page boundary and the mapping marked for huge pages.
     #[cfg(target_os = "linux")]
