@@ -24,10 +24,9 @@
 //! assert_eq!(acc.film().pixel(0, 0), Vec3::splat(0.6));
 //! ```
 
-use raylume_geometry::Vec3;
+use raylume_geometry::{LargeBuffer, Vec3};
 
 use crate::Film;
-use raylume_geometry::LargeBuffer;
 
 /// The `eps` of the relative MSE: `(x - r)² / (r² + eps)`, as in [`metrics::rel_mse`](crate::metrics::rel_mse).
 pub const REL_MSE_EPS: f64 = 0.01;

@@ -1,9 +1,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use raylume_geometry::Vec3;
-
-use raylume_geometry::LargeBuffer;
+use raylume_geometry::{LargeBuffer, Vec3};
 
 /// Why an image could not be written.
 #[derive(Debug, thiserror::Error)]
