@@ -6,6 +6,7 @@ use raylume_geometry::{Aabb, LargeBuffer, Ray, Triangle, Vec3A};
 use raylume_intersect::{TriangleHit, unit_normal};
 
 use super::build::{BuildItem, BvhBuild, build_binary};
+use super::collapse::Plan;
 use super::leaf::{ClosestLeaf, Filter, OccludedLeaf, Portable};
 use super::stream::{self, PacketQuery, Report};
 use super::triangles::{LANES, Leaf};
@@ -170,24 +171,46 @@ impl KernelVisitor for Summary {
     }
 }
 
-/// Builds the tree of `W`-wide nodes over the binary tree `bin` of `items` (triangle `i` of the
-/// items is `tris[i]`): the leaves' triangles and boxes into `leaves` and `leaf_bounds`, one slot for
-/// each leaf of `bin`, in the order the walk down the tree meets them.
+/// A triangles' tree of `W`-wide nodes collapsed from the binary tree `bin` of `items` (triangle
+/// `i` of the items is `tris[i]`) by cost ([`Plan`]), with its leaves' triangles, boxes and unit
+/// normals in the order the walk down the tree meets them. The leaves' arrays are on huge pages when they and their
+/// boxes take more than `large_bytes`.
 fn collapse<const W: usize>(
     bin: &[super::build::Node],
     items: &[BuildItem],
     tris: &[(Triangle, u32)],
-    leaves: &mut [Leaf],
-    leaf_bounds: &mut [[f32; 6]],
-) -> WideTree<W> {
+    block: usize,
+    large_bytes: usize,
+) -> (WideTree<W>, LargeBuffer<Leaf>, LargeBuffer<[f32; 6]>, LargeBuffer<LeafNormals>) {
+    let plan = Plan::<W>::new(bin, MAX_TRIANGLE_LEAF, block);
+    let leaf_count = plan.leaf_count(bin);
+    // The leaves' arrays are the largest part of a mesh's tree, and a walk jumps between them: on
+    // huge pages, where the system has them, far fewer of those jumps miss the translation buffers
+    // once the tree is beyond their reach. A smaller tree does not gain that, and a fresh huge page
+    // is zeroed whole (on some virtual machines, slowly), so it stays on ordinary pages.
+    let large = leaf_count.saturating_mul(size_of::<Leaf>() + size_of::<[f32; 6]>()) > large_bytes;
+    let mut leaves = zeroed(leaf_count, large);
+    let mut leaf_bounds = zeroed(leaf_count, large);
     let mut next = 0;
-    WideTree::collapse(bin, |first: usize, count: usize, bounds: Aabb| {
+    let mut tree = WideTree::collapse(bin, &plan, |first: usize, count: usize, bounds: Aabb| {
         leaves[next] = Leaf::new(items[first..first + count].iter().map(|it| tris[it.index as usize]));
         let (min, max) = (bounds.min.to_array(), bounds.max.to_array());
         leaf_bounds[next] = [min[0], min[1], min[2], max[0], max[1], max[2]];
         next += 1;
         leaf_ref(next - 1, count)
-    })
+    });
+    let bytes = tree.bytes() + std::mem::size_of_val(&*leaves) + std::mem::size_of_val(&*leaf_bounds);
+    tree.prefetch_when_larger(bytes, large_bytes);
+    let mut normals = zeroed(leaf_count, large);
+    for (n, leaf) in normals.iter_mut().zip(leaves.iter()) {
+        *n = leaf_normals(leaf);
+    }
+    (tree, leaves, leaf_bounds, normals)
+}
+
+/// `len` zeroed values, on huge pages if `huge`.
+fn zeroed<T: bytemuck::Pod>(len: usize, huge: bool) -> LargeBuffer<T> {
+    if huge { LargeBuffer::zeroed_on_huge_pages(len) } else { LargeBuffer::zeroed(len) }
 }
 
 impl Triangles {
@@ -214,37 +237,17 @@ impl Triangles {
         // registers, else four.
         let block = if simd.is_some() { 2 * LANES } else { LANES };
         let bin = build_binary(items, method, block, MAX_TRIANGLE_LEAF);
-        // The leaves' arrays are the largest part of a mesh's tree, and a walk jumps between them: on
-        // huge pages, where the system has them, far fewer of those jumps miss the translation buffers
-        // once the tree is beyond their reach. A smaller tree does not gain that, and a fresh huge page
-        // is zeroed whole (on some virtual machines, slowly), so it stays on ordinary pages.
-        let leaf_count = bin.iter().filter(|node| node.count > 0).count();
-        let large = leaf_count.saturating_mul(size_of::<Leaf>() + size_of::<[f32; 6]>()) > large_bytes;
-        fn zeroed<T: bytemuck::Pod>(len: usize, huge: bool) -> LargeBuffer<T> {
-            if huge { LargeBuffer::zeroed_on_huge_pages(len) } else { LargeBuffer::zeroed(len) }
-        }
-        let mut leaves = zeroed(leaf_count, large);
-        let mut leaf_bounds = zeroed(leaf_count, large);
-        let leaf_bytes =
-            |leaves: &[Leaf], bounds: &[[f32; 6]]| std::mem::size_of_val(leaves) + std::mem::size_of_val(bounds);
-        let tree = match simd {
+        match simd {
             #[cfg(target_arch = "x86_64")]
             Some(simd) => {
-                let mut tree = collapse::<8>(&bin, items, tris, &mut leaves, &mut leaf_bounds);
-                tree.prefetch_when_larger(tree.bytes() + leaf_bytes(&leaves, &leaf_bounds), large_bytes);
-                TriangleTree::Avx2(simd, tree)
+                let (tree, leaves, leaf_bounds, leaf_normals) = collapse::<8>(&bin, items, tris, block, large_bytes);
+                Self { tree: TriangleTree::Avx2(simd, tree), leaves, leaf_bounds, leaf_normals }
             }
             _ => {
-                let mut tree = collapse::<4>(&bin, items, tris, &mut leaves, &mut leaf_bounds);
-                tree.prefetch_when_larger(tree.bytes() + leaf_bytes(&leaves, &leaf_bounds), large_bytes);
-                TriangleTree::Portable(tree)
+                let (tree, leaves, leaf_bounds, leaf_normals) = collapse::<4>(&bin, items, tris, block, large_bytes);
+                Self { tree: TriangleTree::Portable(tree), leaves, leaf_bounds, leaf_normals }
             }
-        };
-        let mut normals = zeroed(leaf_count, large);
-        for (n, leaf) in normals.iter_mut().zip(leaves.iter()) {
-            *n = leaf_normals(leaf);
         }
-        Self { tree, leaves, leaf_bounds, leaf_normals: normals }
     }
 
     /// The box of every triangle.

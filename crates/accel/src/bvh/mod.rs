@@ -17,11 +17,13 @@
 //! - `triangles`: the leaves' layout (eight triangles coordinate by coordinate), the grid's packets of
 //!   four, and the four-lane candidate filter;
 //! - `wide`: wide nodes, the collapse of the binary tree into them, the box tests and the walk;
+//! - `collapse`: which binary nodes become wide nodes, their children and leaves, by cost;
 //! - `build`: the binary build.
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
 mod build;
+mod collapse;
 mod kernel;
 mod leaf;
 mod stream;
@@ -30,6 +32,7 @@ mod wide;
 
 pub use build::BvhBuild;
 use build::{BuildItem, build_binary};
+use collapse::Plan;
 pub use kernel::BvhKernel;
 use kernel::Triangles;
 use raylume_geometry::{Aabb, Interval, Ray, Sphere, Vec3A};
@@ -197,9 +200,12 @@ impl<P: Intersect + Clone> Bvh<P> {
         let mut others8 = None;
         let others = (!items.is_empty()).then(|| {
             let bin = build_binary(&mut items, method, 1, SAH_LEAF);
-            let tree = WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count));
+            // The binary tree's leaves stay leaves: each shape's box culls its exact test.
+            let tree =
+                WideTree::collapse(&bin, &Plan::new(&bin, SAH_LEAF, 1), |first, count, _| leaf_ref(first, count));
             if avx2.is_some() {
-                others8 = Some(WideTree::collapse(&bin, |first, count, _| leaf_ref(first, count)));
+                let plan = Plan::new(&bin, SAH_LEAF, 1);
+                others8 = Some(WideTree::collapse(&bin, &plan, |first, count, _| leaf_ref(first, count)));
             }
             let ids: Vec<u32> = items.iter().map(|it| it.index).collect();
             let prims: Vec<P> = ids.iter().map(|&i| prims[i as usize].clone()).collect();
