@@ -61,7 +61,8 @@ impl<const W: usize> Plan<W> {
             plan.inner[b] = k;
             let as_node = NODE_COST * area + children;
             let as_leaf = if count as usize <= max_leaf { leaf_cost(area, count) } else { f32::INFINITY };
-            plan.as_leaf[b] = as_leaf <= as_node;
+            // Areas that overflow make both costs infinite: a leaf only where the items fit in one.
+            plan.as_leaf[b] = count as usize <= max_leaf && as_leaf <= as_node;
             cost[b][0] = as_leaf.min(as_node);
             for i in 2..=W {
                 let (c, k) = shared(i);
