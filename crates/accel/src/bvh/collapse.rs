@@ -7,7 +7,7 @@ use super::build::Node;
 
 /// Cost of visiting a wide node, relative to one leaf block test. The trees of the bench's meshes are
 /// the same for any cost from 0.5 to 4 (docs/PERFORMANCE.md#collapse-to-wide-nodes-by-cost).
-pub(super) const NODE_COST: f32 = 1.0;
+pub(super) const NODE_COST: f64 = 1.0;
 
 /// What the collapse makes of each binary node: for a node taken as one child, whether it becomes a
 /// leaf or a wide node; for a node whose subtree fills `i` slots of its parent, how those slots are
@@ -32,11 +32,11 @@ impl<const W: usize> Plan<W> {
         let len = bin.len();
         let mut plan =
             Self { range: vec![(0, 0); len], as_leaf: vec![false; len], split: vec![[0; W]; len], inner: vec![0; len] };
-        let mut cost = vec![[0.0f32; W]; len];
-        let leaf_cost = |area: f32, count: u32| area * (count as usize).div_ceil(block) as f32;
+        let mut cost = vec![[0.0f64; W]; len];
+        let leaf_cost = |area: f64, count: u32| area * (count as usize).div_ceil(block) as f64;
         for b in (0..len).rev() {
             let node = &bin[b];
-            let area = node.aabb().surface_area();
+            let area = surface_area(node);
             if node.count > 0 {
                 plan.range[b] = (node.offset, node.count);
                 plan.as_leaf[b] = true;
@@ -55,13 +55,12 @@ impl<const W: usize> Plan<W> {
                 (1..slots)
                     .map(|k| (cl[k - 1] + cr[slots - k - 1], k as u8))
                     .min_by(|a, b| a.0.total_cmp(&b.0))
-                    .unwrap_or((f32::INFINITY, 0))
+                    .unwrap_or((f64::INFINITY, 0))
             };
             let (children, k) = shared(W);
             plan.inner[b] = k;
             let as_node = NODE_COST * area + children;
-            let as_leaf = if count as usize <= max_leaf { leaf_cost(area, count) } else { f32::INFINITY };
-            // Areas that overflow make both costs infinite: a leaf only where the items fit in one.
+            let as_leaf = if count as usize <= max_leaf { leaf_cost(area, count) } else { f64::INFINITY };
             plan.as_leaf[b] = count as usize <= max_leaf && as_leaf <= as_node;
             cost[b][0] = as_leaf.min(as_node);
             for i in 2..=W {
@@ -122,4 +121,11 @@ impl<const W: usize> Plan<W> {
         }
         count
     }
+}
+
+/// The surface area of `node`'s box, in f64: boxes of any finite size have an area above zero (unless
+/// flat along two axes) and below infinity, so the costs compare at every scale.
+pub(super) fn surface_area(node: &Node) -> f64 {
+    let [x, y, z] = std::array::from_fn(|a| node.max[a] as f64 - node.min[a] as f64);
+    2.0 * (x * y + y * z + z * x)
 }
