@@ -71,7 +71,7 @@ pub fn random_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Pcg32::new(seed, 0x5851_f42d_4c95_7f2d);
     let mut u = || (rng.next_u32() >> 8) as f32 / (1u32 << 24) as f32;
     let centre = bounds.centroid();
-    let radius = (bounds.diagonal().length() * 0.5).max(1e-6) * 1.5;
+    let radius = (bounds.diagonal().length() * 0.5).max(f32::MIN_POSITIVE) * 1.5;
     (0..count)
         .map(|_| {
             let (a, b) = (u(), u());

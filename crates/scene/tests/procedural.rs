@@ -119,6 +119,22 @@ fn obj_meshes_load_and_place() {
     assert!(camera_rays(&view.view, 4096).len() == 4096);
 }
 
+/// Random rays scale with the scene: a scene 2^k times as large (k from -60 to 60) gets the same
+/// rays with origins 2^k times as far, down to scenes far smaller than a micrometre.
+#[test]
+fn random_rays_scale_with_the_scene() {
+    let bounds = Aabb::new(Vec3A::new(-1.0, 0.0, 2.0), Vec3A::new(3.0, 1.0, 4.0));
+    let unit = random_rays(&bounds, 1000, 7);
+    for k in [-60, -40, -20, 20, 60] {
+        let s = 2.0f32.powi(k);
+        let scaled = random_rays(&Aabb::new(bounds.min * s, bounds.max * s), 1000, 7);
+        for (r, u) in scaled.iter().zip(&unit) {
+            assert_eq!(r.origin, u.origin * s, "scale 2^{k}");
+            assert!((r.dir - u.dir).length() < 1e-6, "scale 2^{k}: {} against {}", r.dir, u.dir);
+        }
+    }
+}
+
 #[test]
 fn ray_sets_round_trip_and_reject_bad_files() {
     let bounds = Aabb::new(Vec3A::new(-1.0, 0.0, 2.0), Vec3A::new(3.0, 1.0, 4.0));
