@@ -291,21 +291,31 @@ impl<P: Intersect> Grid<P> {
         if bounds.is_empty() {
             bounds = Aabb::from_point(Vec3A::ZERO);
         }
-        // Pad degenerate extents so every axis has a positive size.
+        // Pad degenerate extents so every axis has a positive size, in proportion to the scene, so the
+        // grid of a scene scaled by any factor is the same grid scaled.
         let extent = bounds.diagonal();
-        let pad = Vec3A::splat(extent.max_element().max(1e-6) * 1e-3);
+        let size = if extent.max_element() > 0.0 {
+            extent.max_element()
+        } else {
+            bounds.min.abs().max(bounds.max.abs()).max_element()
+        };
+        let pad = Vec3A::splat((size * 1e-3).max(f32::MIN_POSITIVE));
         let flat = extent.cmple(pad);
         bounds = Aabb::new(
             Vec3A::select(flat, bounds.min - pad, bounds.min),
             Vec3A::select(flat, bounds.max + pad, bounds.max),
         );
+        // Cells per axis in proportion to the extents relative to the largest, in f64: the same cells at
+        // any scale (in f32 the volume of a scene below about 1e-13 across, or above 1e13, leaves f32's
+        // range).
         let extent = bounds.diagonal();
-        let volume = extent.x * extent.y * extent.z;
-        let mut per_unit = (params.k.clamp(1e-3, 1e6) * bounded.max(1) as f32 / volume).cbrt();
+        let relative = [0, 1, 2].map(|a| extent[a] as f64 / extent.max_element() as f64);
+        let volume = relative[0] * relative[1] * relative[2];
+        let mut per_unit = (params.k.clamp(1e-3, 1e6) as f64 * bounded.max(1) as f64 / volume).cbrt();
         let budget =
             (bounded as u64).saturating_mul(ENTRIES_PER_PRIMITIVE).max(MIN_ENTRY_BUDGET).min(u32::MAX as u64 / 2);
         let cells = loop {
-            let cells = [0, 1, 2].map(|a| ((extent[a] * per_unit).round() as usize).clamp(1, MAX_CELLS_PER_AXIS));
+            let cells = [0, 1, 2].map(|a| ((relative[a] * per_unit).round() as usize).clamp(1, MAX_CELLS_PER_AXIS));
             let n_cells = cells.iter().map(|&c| c as u64).product::<u64>();
             if cells == [1, 1, 1] || (n_cells <= MAX_CELLS && entries(&prim_bounds, bounds, cells) <= budget) {
                 break cells;
@@ -784,6 +794,55 @@ mod tests {
             let Some(sheared) = ShearedRay::new(&canonical) else { return Ok(()) };
             let hit = watertight_decide(&tri, &sheared, Interval::new(0.0, f32::MAX)).is_some();
             prop_assert!(!hit || !DirectTriangle::new(tri, 0).behind(&canonical));
+        }
+    }
+
+    /// A scene scaled by 2^k (k from -50 to 50) gets the same grid, its cells and entries, and the
+    /// same answers as brute force, as many hits at every scale. (A padding of at least 1e-6, or the
+    /// scene's volume in f32, would make other cells below 1e-9 and above 1e13.)
+    #[test]
+    fn the_grid_of_a_scaled_scene_is_the_same_grid() {
+        use rand_core::Rng;
+        use raylume_intersect::Primitive;
+
+        use crate::BruteForce;
+
+        let mut rng = rand_pcg::Pcg32::new(5, 9);
+        let mut unit = move || (rng.next_u32() >> 8) as f32 / (1 << 24) as f32;
+        let mut point = move |scale: f32| Vec3A::new(unit(), unit(), unit()) * (2.0 * scale) - Vec3A::splat(scale);
+        let corners: Vec<[Vec3A; 3]> = (0..500)
+            .map(|_| {
+                let c = point(1.0);
+                [c, c + point(0.05), c + point(0.05)]
+            })
+            .collect();
+        let rays: Vec<Ray> = (0..2000)
+            .map(|_| {
+                let origin = point(3.0);
+                Ray::new(origin, point(1.0) - origin)
+            })
+            .collect();
+        let unit_grid = |s: f32| {
+            let prims: Vec<Primitive> =
+                corners.iter().map(|v| Primitive::Triangle(Triangle::new(v[0] * s, v[1] * s, v[2] * s))).collect();
+            (Grid::new(prims.clone(), Interval::new(0.0, 0.0), GridParams::default()), BruteForce::new(prims))
+        };
+        let (reference, _) = unit_grid(1.0);
+        assert!(reference.cells.iter().product::<usize>() >= 1000, "{:?}", reference.cells);
+        let mut hits_at_scale_one = None;
+        for k in [0, -50, -40, -20, 20, 40, 50] {
+            let s = 2.0f32.powi(k);
+            let (grid, brute) = unit_grid(s);
+            assert_eq!((grid.cells, grid.entries()), (reference.cells, reference.entries()), "scale 2^{k}");
+            let mut hits = 0;
+            for r in &rays {
+                let ray = Ray::new(r.origin * s, r.dir);
+                let (a, b) = (grid.closest_hit(&ray, Interval::POSITIVE), brute.closest_hit(&ray, Interval::POSITIVE));
+                assert_eq!(a.map(|h| (h.primitive, h.hit.t.to_bits())), b.map(|h| (h.primitive, h.hit.t.to_bits())));
+                hits += a.is_some() as usize;
+            }
+            assert!(hits > 50, "scale 2^{k}: {hits} hits");
+            assert_eq!(hits, *hits_at_scale_one.get_or_insert(hits), "scale 2^{k}");
         }
     }
 
