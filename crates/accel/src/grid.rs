@@ -301,10 +301,18 @@ impl<P: Intersect> Grid<P> {
         };
         let pad = Vec3A::splat((size * 1e-3).max(f32::MIN_POSITIVE));
         let flat = extent.cmple(pad);
-        bounds = Aabb::new(
-            Vec3A::select(flat, bounds.min - pad, bounds.min),
-            Vec3A::select(flat, bounds.max + pad, bounds.max),
+        let (mut min, mut max) = (
+            Vec3A::select(flat, bounds.min - pad, bounds.min).to_array(),
+            Vec3A::select(flat, bounds.max + pad, bounds.max).to_array(),
         );
+        // A pad below the coordinates' spacing (a flat scene far from the origin) leaves the axis flat:
+        // widen it to the neighbouring floats.
+        for a in 0..3 {
+            if max[a] - min[a] <= 0.0 {
+                (min[a], max[a]) = (min[a].next_down(), max[a].next_up());
+            }
+        }
+        bounds = Aabb::new(Vec3A::from_array(min), Vec3A::from_array(max));
         // Cells per axis in proportion to the extents relative to the largest, in f64: the same cells at
         // any scale (in f32 the volume of a scene below about 1e-13 across, or above 1e13, leaves f32's
         // range).
@@ -844,6 +852,46 @@ mod tests {
             assert!(hits > 50, "scale 2^{k}: {hits} hits");
             assert_eq!(hits, *hits_at_scale_one.get_or_insert(hits), "scale 2^{k}");
         }
+    }
+
+    /// A flat scene far from the origin, whose flat axis no pad in proportion to the scene can widen
+    /// (a thousandth of it is below the spacing of floats there), gets a grid, and answers as brute force.
+    #[test]
+    fn a_flat_scene_far_from_the_origin_gets_a_grid() {
+        use raylume_intersect::Primitive;
+
+        use crate::BruteForce;
+
+        let prims: Vec<Primitive> = (0..200)
+            .map(|i| {
+                let (x, y) = ((i % 10) as f32 * 0.01, (i / 10) as f32 * 0.005);
+                let z = 1.0e6;
+                Primitive::Triangle(Triangle::new(
+                    Vec3A::new(x, y, z),
+                    Vec3A::new(x + 0.9, y, z),
+                    Vec3A::new(x, y + 0.9, z),
+                ))
+            })
+            .collect();
+        // With its flat axis left flat the build would refine its cells forever: bounded here, so the
+        // test fails rather than hangs.
+        let (send, receive) = std::sync::mpsc::channel();
+        let scene = prims.clone();
+        std::thread::spawn(move || {
+            send.send(Box::new(Grid::new(scene, Interval::new(0.0, 0.0), GridParams::default())))
+        });
+        let grid = receive.recv_timeout(std::time::Duration::from_secs(60)).expect("the grid is built");
+        assert!(grid.bounds.diagonal().z > 0.0 && grid.entries() > 0, "{:?}", grid.cells);
+        let brute = BruteForce::new(prims);
+        let mut hits = 0;
+        for i in 0..400 {
+            let target = Vec3A::new((i % 20) as f32 * 0.05, (i / 20) as f32 * 0.05, 1.0e6);
+            let ray = Ray::new(target + Vec3A::new(0.3, -0.2, 5.0), Vec3A::new(-0.3, 0.2, -5.0));
+            let (a, b) = (grid.closest_hit(&ray, Interval::POSITIVE), brute.closest_hit(&ray, Interval::POSITIVE));
+            assert_eq!(a.map(|h| (h.primitive, h.hit.t.to_bits())), b.map(|h| (h.primitive, h.hit.t.to_bits())));
+            hits += a.is_some() as usize;
+        }
+        assert!(hits > 100, "{hits} hits");
     }
 
     /// Up to [`FEW_OTHERS`] bounded shapes other than triangles are tested from one node of their boxes
