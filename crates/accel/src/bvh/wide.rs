@@ -821,16 +821,27 @@ fn planned_node<const W: usize>(
     }
     let mut children = [0usize; W];
     let n = plan.children(bin, b, &mut children);
+    wide_node(bin, &children[..n], out, |c, out| planned_node(bin, plan, c, out, leaf))
+}
+
+/// Appends the wide node whose children are the binary nodes `children`, each made by `child`, after
+/// them in `out`; its index.
+fn wide_node<const W: usize>(
+    bin: &[Node],
+    children: &[usize],
+    out: &mut Vec<WideNode<W>>,
+    mut child: impl FnMut(usize, &mut Vec<WideNode<W>>) -> u32,
+) -> u32 {
     let me = out.len();
     out.push(WideNode::EMPTY);
     let mut wide = WideNode::EMPTY;
-    for (slot, &c) in children[..n].iter().enumerate() {
+    for (slot, &c) in children.iter().enumerate() {
         let b = &bin[c];
         for a in 0..3 {
             wide.bounds[2 * a][slot] = b.min[a];
             wide.bounds[2 * a + 1][slot] = b.max[a];
         }
-        wide.child[slot] = planned_node(bin, plan, c, out, leaf);
+        wide.child[slot] = child(c, out);
     }
     out[me] = wide;
     me as u32
@@ -862,19 +873,7 @@ fn collapse_node<const W: usize>(
         children[n] = bin[c].offset as usize + 1;
         n += 1;
     }
-    let me = out.len();
-    out.push(WideNode::EMPTY);
-    let mut wide = WideNode::EMPTY;
-    for (slot, &c) in children[..n].iter().enumerate() {
-        let b = &bin[c];
-        for a in 0..3 {
-            wide.bounds[2 * a][slot] = b.min[a];
-            wide.bounds[2 * a + 1][slot] = b.max[a];
-        }
-        wide.child[slot] = collapse_node(bin, c, out, leaf);
-    }
-    out[me] = wide;
-    me as u32
+    wide_node(bin, &children[..n], out, |c, out| collapse_node(bin, c, out, leaf))
 }
 
 #[cfg(test)]
