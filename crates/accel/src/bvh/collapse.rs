@@ -60,9 +60,9 @@ impl<const W: usize> Plan<W> {
             let (children, k) = shared(W);
             plan.inner[b] = k;
             let as_node = NODE_COST * area + children;
-            let as_leaf = if count as usize <= max_leaf { leaf_cost(area, count) } else { f64::INFINITY };
-            plan.as_leaf[b] = count as usize <= max_leaf && as_leaf <= as_node;
-            cost[b][0] = as_leaf.min(as_node);
+            let as_leaf = (count as usize <= max_leaf).then(|| leaf_cost(area, count));
+            plan.as_leaf[b] = as_leaf.is_some_and(|c| c <= as_node);
+            cost[b][0] = as_leaf.map_or(as_node, |c| c.min(as_node));
             for i in 2..=W {
                 let (c, k) = shared(i);
                 if c < cost[b][i - 2] {

@@ -173,8 +173,8 @@ impl KernelVisitor for Summary {
 
 /// A triangles' tree of `W`-wide nodes collapsed from the binary tree `bin` of `items` (triangle
 /// `i` of the items is `tris[i]`) by cost ([`Plan`]), with its leaves' triangles, boxes and unit
-/// normals in the order the walk down the tree meets them. The leaves' arrays are on huge pages when they and their
-/// boxes take more than `large_bytes`.
+/// normals in the order the walk down the tree meets them. The leaves' arrays are on huge pages when
+/// the leaves and their boxes take more than `large_bytes`.
 fn collapse<const W: usize>(
     bin: &[super::build::Node],
     items: &[BuildItem],
